@@ -1,0 +1,95 @@
+"""Look-at: aim a forward axis of the end-effector frame at a target (the head's gaze)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+
+from humanoid_ik.chain import Chain
+from humanoid_ik.rotations import AXES, hinge_angle_between, look_at
+from humanoid_ik.solvers.base import Solver
+from humanoid_ik.types import IKResult, Target
+
+__all__ = ["LookAt"]
+
+
+class LookAt(Solver):
+    """Turn the chain's hinges so the site's ``forward_axis`` points at the target.
+
+    The desired frame is :func:`humanoid_ik.rotations.look_at` from the site to the
+    target with the ``up`` vector; its forward column is the direction to reach. Each
+    sweep turns every hinge (tip to root) by the angle that takes the current forward
+    axis closest to the desired one about that hinge, re-reading FK from MuJoCo, until
+    the angle between them is below ``rot_tol`` (for a yaw/pitch neck this converges in
+    a few sweeps; the gaze site's offset from the neck is accounted for by re-aiming from
+    the site's new position). Hinges cannot roll a 2-hinge head, so ``up`` only fixes
+    the desired frame's roll where the chain can follow it.
+    """
+
+    name: ClassVar[str] = "look_at"
+    summary: ClassVar[str] = "aim a forward axis of the site at the target (gaze)"
+    forward_axis_choices: ClassVar[tuple[str, ...]] = ("x", "y", "z")
+    defaults: ClassVar[dict[str, Any]] = {
+        "forward_axis": "x",
+        "max_iterations": 50,
+        "up": (0.0, 0.0, 1.0),
+    }
+    _common: ClassVar[dict[str, Any]] = {"tol": 1e-4, "rot_tol": 1e-6}
+
+    def applicable(self, chain: Chain, pose: bool = False) -> str | None:
+        if pose:
+            return "look_at aims an axis at a point; it takes position targets only"
+        return None
+
+    def _solve(self, chain: Chain, target: Target, q0: np.ndarray) -> IKResult:
+        m, d = chain.model, chain.data
+        k = AXES[self.forward_axis]
+        q = q0.copy()
+        chain.set_q(q)
+        jids, qadr = chain.joint_ids, chain.qpos_adr
+        lo, hi = chain.lower, chain.upper
+        pd = target.position
+        angle = math.pi
+        for sweep in range(1, self.max_iterations + 1):
+            for i in range(chain.n - 1, -1, -1):
+                j = jids[i]
+                want = look_at(chain.position, pd, self.up, self.forward_axis)[:, k]
+                fwd = chain.rotation[:, k]
+                phi = hinge_angle_between(d.xaxis[j], fwd, want)
+                q[i] = min(max(q[i] + phi, lo[i]), hi[i])
+                d.qpos[qadr[i]] = q[i]
+                mujoco.mj_kinematics(m, d)
+            angle = self._gaze_error(chain, pd, k)[1]
+            if angle < self.rot_tol:
+                return self._gaze_result(chain, target, q, sweep)
+        return self._gaze_result(chain, target, q, self.max_iterations)
+
+    @staticmethod
+    def _gaze_error(chain: Chain, pd: np.ndarray, k: int) -> tuple[float, float]:
+        """(distance [m] from the target to the gaze ray, angle [rad] off the target)."""
+        v = pd - chain.position
+        dist = float(np.linalg.norm(v))
+        if dist < 1e-12:
+            return 0.0, 0.0
+        fwd = chain.rotation[:, k]
+        ang = math.atan2(float(np.linalg.norm(np.cross(fwd, v))), float(fwd @ v))
+        miss = dist * math.sin(ang) if ang < math.pi / 2 else dist
+        return miss, ang
+
+    def _gaze_result(self, chain: Chain, target: Target, q: np.ndarray, it: int) -> IKResult:
+        chain.set_q(q)
+        miss, ang = self._gaze_error(chain, target.position, AXES[self.forward_axis])
+        ok = ang < self.rot_tol
+        return IKResult(
+            q=q.copy(),
+            converged=ok,
+            iterations=it,
+            position_error=miss,
+            orientation_error=ang,
+            status="converged" if ok else "max_iterations",
+            solver=self.name,
+            message="" if ok else "the gaze cannot turn far enough within the joint ranges",
+        )
