@@ -48,6 +48,8 @@ class Solver(ABC):
     name: ClassVar[str]
     summary: ClassVar[str]
     supports_orientation: ClassVar[bool] = False
+    reaches: ClassVar[bool] = True
+    """True for solvers that move the site onto the target (the bench's reaching tasks)."""
     defaults: ClassVar[dict[str, Any]] = {}
     _common: ClassVar[dict[str, Any]] = {"tol": 1e-4, "rot_tol": 1e-3}
 

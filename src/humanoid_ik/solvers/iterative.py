@@ -1,9 +1,9 @@
 """The loop shared by the Jacobian family: error, Jacobian, step, clamp to ranges.
 
 Per iteration: ``mj_kinematics`` -> task error ``e`` (3 or 6 rows) -> ``mj_comPos`` +
-``mj_jacSite`` -> ``dq = step(J, e)`` (recomputed without the joints that sit at a range end and would
-be pushed past it) -> optional null-space bias toward ``home`` ->
-step capped at ``max_step`` -> ``q`` clipped to the joint ranges. All buffers are
+``mj_jacSite`` -> ``dq = step(J, e)`` (recomputed without the joints that sit at a range
+end and would be pushed past it) -> optional null-space bias toward ``home`` -> step
+capped at ``max_step`` -> ``q`` clipped to the joint ranges. All buffers are
 allocated once per solve. A run that stalls (no 1 % progress in ``stall_window``
 iterations) or hits ``max_iterations`` restarts from a seeded random in-range pose, up to
 ``restarts`` times; the best pose seen is returned.

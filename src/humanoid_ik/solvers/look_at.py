@@ -30,6 +30,7 @@ class LookAt(Solver):
     """
 
     name: ClassVar[str] = "look_at"
+    reaches: ClassVar[bool] = False
     summary: ClassVar[str] = "aim a forward axis of the site at the target (gaze)"
     forward_axis_choices: ClassVar[tuple[str, ...]] = ("x", "y", "z")
     defaults: ClassVar[dict[str, Any]] = {
