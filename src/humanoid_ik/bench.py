@@ -21,8 +21,15 @@ from humanoid_ik.rotations import mat_to_quat
 from humanoid_ik.solvers import SOLVERS, make_solver
 from humanoid_ik.types import Target
 
-__all__ = ["BenchRow", "BenchReport", "run_bench", "make_targets", "TASKS",
-           "POSITION_SUCCESS_M", "ORIENTATION_SUCCESS_RAD"]
+__all__ = [
+    "BenchRow",
+    "BenchReport",
+    "run_bench",
+    "make_targets",
+    "TASKS",
+    "POSITION_SUCCESS_M",
+    "ORIENTATION_SUCCESS_RAD",
+]
 
 TASKS = ("position", "pose")
 POSITION_SUCCESS_M = 1e-3
@@ -62,8 +69,10 @@ class BenchReport:
 
     def table(self) -> str:
         """The results as a fixed-width text table."""
-        head = (f"{'solver':<20} {'success':>8} {'median ms':>10} {'p95 ms':>9} "
-                f"{'mean iter':>10} {'max err mm':>11} {'limit viol':>10}")
+        head = (
+            f"{'solver':<20} {'success':>8} {'median ms':>10} {'p95 ms':>9} "
+            f"{'mean iter':>10} {'max err mm':>11} {'limit viol':>10}"
+        )
         lines = [head, "-" * len(head)]
         for r in self.results:
             if r.skipped:

@@ -123,8 +123,9 @@ class Chain:
             raise ChainError(f"no hinge joint moves {self.ee_kind} '{self.ee_name}'")
         ids.sort(key=lambda j: int(m.jnt_dofadr[j]))
         self.joint_ids = np.array(ids, dtype=np.int64)
-        self.joint_names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
-                            for j in ids]
+        self.joint_names = [
+            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in ids
+        ]
         self.qpos_adr = m.jnt_qposadr[self.joint_ids].astype(np.int64)
         self.dof_adr = m.jnt_dofadr[self.joint_ids].astype(np.int64)
         limited = m.jnt_limited[self.joint_ids].astype(bool)
@@ -329,4 +330,4 @@ class Chain:
         return rng.uniform(lo, hi)
 
     def __repr__(self) -> str:
-        return (f"Chain({self.ee_kind}='{self.ee_name}', joints=[{', '.join(self.joint_names)}])")
+        return f"Chain({self.ee_kind}='{self.ee_name}', joints=[{', '.join(self.joint_names)}])"

@@ -115,8 +115,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         doc = {
             "model": _model_name(args),
             "site": chain.ee_name,
-            "target": {"position": target.position.tolist(),
-                       "quat": None if target.quat is None else target.quat.tolist()},
+            "target": {
+                "position": target.position.tolist(),
+                "quat": None if target.quat is None else target.quat.tolist(),
+            },
             **result.to_dict(chain.joint_names),
         }
         print(json.dumps(doc, indent=2))
@@ -154,13 +156,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if args.json:
         _check_writable(Path(args.json))
     try:
-        report = run_bench(chain, args.task, _names(args.solvers), args.n, args.seed,
-                           _model_name(args), progress)
+        report = run_bench(
+            chain, args.task, _names(args.solvers), args.n, args.seed, _model_name(args), progress
+        )
     finally:
         if bar is not None:
             bar.close()
-    print(f"model {report.model}  site {report.site}  task {report.task}  n {report.n}  "
-          f"seed {report.seed}")
+    print(
+        f"model {report.model}  site {report.site}  task {report.task}  n {report.n}  "
+        f"seed {report.seed}"
+    )
     print(report.table())
     if args.json:
         _write_atomic(Path(args.json), json.dumps(report.to_dict(), indent=2) + "\n")
@@ -186,8 +191,9 @@ def _write_atomic(path: Path, text: str) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from humanoid_ik.solvers import SOLVERS
 
-    parser = _Parser(prog="humanoid-ik", description="Inverse kinematics for humanoid arms "
-                                                     "on MuJoCo.")
+    parser = _Parser(
+        prog="humanoid-ik", description="Inverse kinematics for humanoid arms on MuJoCo."
+    )
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     parser.add_argument("--version", action="version", version=f"humanoid-ik {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -196,11 +202,20 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("solve", help="solve one target and print the joint values")
     p.add_argument("--target", required=True, metavar="X,Y,Z", help="target position [m]")
     p.add_argument("--quat", metavar="W,X,Y,Z", help="target orientation (unit quaternion)")
-    p.add_argument("--solver", default="dls", choices=list(SOLVERS), metavar="NAME",
-                   help=f"one of: {', '.join(SOLVERS)} (default: dls)")
+    p.add_argument(
+        "--solver",
+        default="dls",
+        choices=list(SOLVERS),
+        metavar="NAME",
+        help=f"one of: {', '.join(SOLVERS)} (default: dls)",
+    )
     _add_chain_args(p)
-    p.add_argument("--option", action="append", metavar="KEY=VALUE",
-                   help="solver option, repeatable (e.g. method=angle_axis)")
+    p.add_argument(
+        "--option",
+        action="append",
+        metavar="KEY=VALUE",
+        help="solver option, repeatable (e.g. method=angle_axis)",
+    )
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=_cmd_solve)
 
@@ -236,8 +251,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         if debug:
             traceback.print_exc()
-        print(f"humanoid-ik: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
-              file=sys.stderr)
+        print(
+            f"humanoid-ik: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print("humanoid-ik: interrupted", file=sys.stderr)

@@ -68,33 +68,42 @@ class Solver(ABC):
     def _check_option(self, key: str, value: Any, default: Any) -> Any:
         if isinstance(default, bool):
             if not isinstance(value, bool):
-                raise SolverError(f"option '{key}' of solver '{self.name}' must be true or false, "
-                                  f"got {value!r}")
+                raise SolverError(
+                    f"option '{key}' of solver '{self.name}' must be true or false, got {value!r}"
+                )
             return value
         if isinstance(default, (int, float)):
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise SolverError(f"option '{key}' of solver '{self.name}' must be a number, "
-                                  f"got {value!r}")
+                raise SolverError(
+                    f"option '{key}' of solver '{self.name}' must be a number, got {value!r}"
+                )
             if not math.isfinite(value) or value < 0:
-                raise SolverError(f"option '{key}' of solver '{self.name}' must be a finite "
-                                  f"number >= 0, got {value!r}")
+                raise SolverError(
+                    f"option '{key}' of solver '{self.name}' must be a finite "
+                    f"number >= 0, got {value!r}"
+                )
             if isinstance(default, int):
                 if value != int(value):
-                    raise SolverError(f"option '{key}' of solver '{self.name}' must be an "
-                                      f"integer, got {value!r}")
+                    raise SolverError(
+                        f"option '{key}' of solver '{self.name}' must be an integer, got {value!r}"
+                    )
                 return int(value)
             return float(value)
         if isinstance(default, tuple):
             arr = np.asarray(value, dtype=np.float64) if not isinstance(value, str) else None
             if arr is None or arr.shape != (len(default),) or not np.all(np.isfinite(arr)):
-                raise SolverError(f"option '{key}' of solver '{self.name}' must be "
-                                  f"{len(default)} finite numbers, got {value!r}")
+                raise SolverError(
+                    f"option '{key}' of solver '{self.name}' must be "
+                    f"{len(default)} finite numbers, got {value!r}"
+                )
             return tuple(float(v) for v in arr)
         if isinstance(default, str):
             allowed = getattr(self, f"{key}_choices", None)
             if not isinstance(value, str) or (allowed and value not in allowed):
-                raise SolverError(f"option '{key}' of solver '{self.name}' is {value!r}; "
-                                  f"choices: {choices(allowed or [])}")
+                raise SolverError(
+                    f"option '{key}' of solver '{self.name}' is {value!r}; "
+                    f"choices: {choices(allowed or [])}"
+                )
             return value
         return value
 

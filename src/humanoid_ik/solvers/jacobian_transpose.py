@@ -22,8 +22,11 @@ class JacobianTranspose(JacobianSolver):
 
     name: ClassVar[str] = "jacobian_transpose"
     summary: ClassVar[str] = "Jacobian transpose, optimal step along the gradient"
-    defaults: ClassVar[dict[str, Any]] = {"max_iterations": 1500, "restarts": 3,
-                                          "stall_window": 200}
+    defaults: ClassVar[dict[str, Any]] = {
+        "max_iterations": 1500,
+        "restarts": 3,
+        "stall_window": 200,
+    }
 
     def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
         g = J.T @ e

@@ -108,8 +108,10 @@ class TwoLink(Solver):
     def structure_problem(chain: Chain) -> str | None:
         """Why the chain has no spherical shoulder followed by an elbow, or ``None``."""
         if chain.n < 4:
-            return (f"two_link needs 3 shoulder hinges and an elbow hinge; the chain has "
-                    f"{chain.n} joint(s)")
+            return (
+                f"two_link needs 3 shoulder hinges and an elbow hinge; the chain has "
+                f"{chain.n} joint(s)"
+            )
         anchors, axes = chain.joint_axes()
         S = _meeting_point(anchors[:3], axes[:3])
         if S is None:
@@ -175,15 +177,22 @@ class TwoLink(Solver):
         q = best[1]
         if outside > 0.0:
             where = "beyond" if r > shell.r_max else "inside the inner hole of"
-            msg = (f"target is {outside:.6g} m {where} the reachable shell "
-                   f"[{shell.r_min:.4f}, {shell.r_max:.4f}] m around the shoulder")
+            msg = (
+                f"target is {outside:.6g} m {where} the reachable shell "
+                f"[{shell.r_min:.4f}, {shell.r_max:.4f}] m around the shoulder"
+            )
             return self._result(chain, target, q, 1, status="unreachable", message=msg)
         if best[0] > 0.0:
             res = self._result(chain, target, q, 1)
             if not res.converged:
-                return self._result(chain, target, q, 1, status="unreachable",
-                                    message="no shoulder and elbow angles inside the joint "
-                                            "ranges reach the target")
+                return self._result(
+                    chain,
+                    target,
+                    q,
+                    1,
+                    status="unreachable",
+                    message="no shoulder and elbow angles inside the joint ranges reach the target",
+                )
             return res
         return self._result(chain, target, q, 1)
 
