@@ -24,7 +24,8 @@ class NameNotFoundError(HumanoidIKError, KeyError):
         self.name = name
         self.valid = sorted(valid)
         shown = ", ".join(self.valid) if self.valid else "(none)"
-        super().__init__(f"{kind} '{name}' not in model; {kind}s: {shown}")
+        plural = "bodies" if kind == "body" else f"{kind}s"
+        super().__init__(f"{kind} '{name}' not in model; {plural}: {shown}")
 
     def __str__(self) -> str:  # KeyError would quote the message.
         return str(self.args[0])
@@ -49,3 +50,55 @@ class SolverError(HumanoidIKError, ValueError):
 def choices(valid: Iterable[str]) -> str:
     """Comma-separated list of valid choices for an error message."""
     return ", ".join(sorted(valid))
+
+
+class TrajectoryError(HumanoidIKError, ValueError):
+    """A target motion with a bad parameter (a negative radius, a zero normal...).
+
+    Attributes:
+        field: the parameter's name, e.g. ``radius``.
+        expected: what the parameter must be, e.g. ``a number > 0``.
+        got: the value that was given.
+    """
+
+    def __init__(self, field: str, expected: str, got: object):
+        self.field = field
+        self.expected = expected
+        self.got = got
+        super().__init__(f"{field}: expected {expected}, got {show_value(got)}")
+
+
+class SceneError(HumanoidIKError, ValueError):
+    """A scene file that cannot be read or does not fit the model.
+
+    Attributes:
+        path: the scene file as the user named it.
+        key: the dotted key of the bad value, e.g. ``targets[0].motion.radius``
+            (``""`` for the file as a whole).
+    """
+
+    def __init__(self, path: object, key: str, message: str):
+        self.path = str(path)
+        self.key = key
+        where = f"{self.path}: {key}" if key else self.path
+        super().__init__(f"{where}: {message}")
+
+
+class RenderError(HumanoidIKError):
+    """No working OpenGL backend, an unknown camera, or an output folder that cannot be
+    written."""
+
+
+def show_value(value: object) -> str:
+    """A value as it would be written in a TOML scene file (for error messages)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {show_value(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(show_value(v) for v in value) + "]"
+    if hasattr(value, "tolist"):
+        return show_value(value.tolist())
+    return repr(value)

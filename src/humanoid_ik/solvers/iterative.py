@@ -72,7 +72,7 @@ class JacobianSolver(Solver):
         for q in self.starts(chain, q0):
             history = np.full(window, math.inf)
             d.qpos[qadr] = q
-            for it in range(self.max_iterations):
+            for it in range(self.max_iterations + 1):
                 mujoco.mj_kinematics(m, d)
                 ep, er = pose_error(chain, target, e)
                 cost = ep + (0.1 * er if pose else 0.0)
@@ -82,7 +82,9 @@ class JacobianSolver(Solver):
                 if ep < tol and (not pose or er < rot_tol):
                     iterations += it
                     return self._result(chain, target, q, iterations)
-                if it >= window and cost > 0.99 * history[it % window]:
+                if it == self.max_iterations or (
+                    it >= window and cost > 0.99 * history[it % window]
+                ):
                     iterations += it
                     break
                 history[it % window] = cost
@@ -102,6 +104,4 @@ class JacobianSolver(Solver):
                 q += dq
                 np.clip(q, lo, hi, out=q)
                 d.qpos[qadr] = q
-            else:
-                iterations += self.max_iterations
         return self._result(chain, target, best_q, iterations)

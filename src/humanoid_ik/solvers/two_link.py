@@ -26,6 +26,7 @@ from humanoid_ik.types import IKResult, Target
 
 __all__ = ["TwoLink", "law_of_cosines", "polar_angles", "Shell"]
 
+_BOUNDARY_TOL = 1e-9  # [m]: a target this close to the shell counts as on it
 _TWISTS = np.deg2rad(np.concatenate([[0.0], np.repeat(np.arange(5.0, 181.0, 5.0), 2)]))
 _TWISTS[2::2] *= -1.0
 
@@ -166,16 +167,17 @@ class TwoLink(Solver):
             v0 = chain.position - S
             direction = t if r > 1e-12 else v0
             R = self.shoulder_rotation(v0, direction)
-            found, q_sh, violation = _fit_shoulder(chain, R, direction, shoulder_axes, q0[:3])
-            q[:3] = q_sh
-            if found and chain.within_limits(q):
+            _, q[:3], _ = _fit_shoulder(chain, R, direction, shoulder_axes, q0[:3])
+            violation = float(np.sum(np.maximum(chain.lower - q, 0.0)
+                                     + np.maximum(q - chain.upper, 0.0)))
+            if violation == 0.0:
                 best = (0.0, q)
                 break
             if best is None or violation < best[0]:
                 best = (violation, chain.clip(q))
         assert best is not None
         q = best[1]
-        if outside > 0.0:
+        if outside > _BOUNDARY_TOL:
             where = "beyond" if r > shell.r_max else "inside the inner hole of"
             msg = (
                 f"target is {outside:.6g} m {where} the reachable shell "
@@ -257,22 +259,38 @@ def _fit_shoulder(
 ) -> tuple[bool, NDArray[np.float64], float]:
     """Shoulder angles for ``R`` inside the ranges, twisting about ``t`` if needed.
 
+    Twists are tried at 0, +-5, +-10, ... 180 degrees; when none fits, the search
+    narrows around the twist with the smallest range violation (steps of 1 degree,
+    then a quarter of that, down to 1e-5 rad).
+
     Returns ``(found, q (3,), range violation [rad] of the best candidate)``.
     """
     lo, hi = chain.lower[:3], chain.upper[:3]
     t_hat = t / np.linalg.norm(t)
-    best_q, best_v = np.zeros(3), math.inf
-    for psi in _TWISTS:
+    best = [np.zeros(3), math.inf, 0.0]  # q, violation, twist
+
+    def trial(psi: float) -> bool:
         Rt = R if psi == 0.0 else axis_angle_matrix(t_hat, psi) @ R
-        sols = decompose_three_axes(Rt, axes[0], axes[1], axes[2], q1_free=float(q_start[0]))
-        for sol in sols:
+        for sol in decompose_three_axes(Rt, axes[0], axes[1], axes[2], float(q_start[0])):
             q = _into_range(sol, lo, hi)
             v = float(np.sum(np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)))
-            if v < best_v or (v == best_v == 0.0 and _dist(q, q_start) < _dist(best_q, q_start)):
-                best_q, best_v = q, v
-        if best_v == 0.0:
-            return True, best_q, 0.0
-    return False, best_q, best_v
+            closer = v == best[1] == 0.0 and _dist(q, q_start) < _dist(best[0], q_start)
+            if v < best[1] or closer:
+                best[:] = [q, v, psi]
+        return best[1] == 0.0
+
+    for psi in _TWISTS:
+        trial(float(psi))
+        if best[1] == 0.0:
+            return True, best[0], 0.0
+    step = math.radians(1.0)
+    while step > 1e-5:
+        centre = best[2]
+        for k in (1, -1, 2, -2, 3, -3, 4, -4):
+            if trial(centre + k * step):
+                return True, best[0], 0.0
+        step *= 0.25
+    return False, best[0], best[1]
 
 
 def _into_range(q: NDArray, lo: NDArray, hi: NDArray) -> NDArray:

@@ -1,0 +1,85 @@
+"""Inline MJCF chains for the tests (built with ``MjModel.from_xml_string``)."""
+
+from __future__ import annotations
+
+import mujoco
+
+# The worksheet's limb: a 3-hinge shoulder at p1 = origin (Y, Z, X: the YZX Euler order of
+# the polar method), d12 = (3, 0, 0), an elbow about z, d23 = (2, 0, 0). No joint limits.
+WORKSHEET_XML = """
+<mujoco model="worksheet">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="upper">
+      <joint name="sh_y" type="hinge" axis="0 1 0"/>
+      <joint name="sh_z" type="hinge" axis="0 0 1"/>
+      <joint name="sh_x" type="hinge" axis="1 0 0"/>
+      <geom type="capsule" fromto="0 0 0 3 0 0" size="0.1"/>
+      <body name="lower" pos="3 0 0">
+        <joint name="elbow_z" type="hinge" axis="0 0 1"/>
+        <geom type="capsule" fromto="0 0 0 2 0 0" size="0.1"/>
+        <site name="p3" pos="2 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+# The lecture notes' CCD example: two hinges about z, d12 = (2, 0, 0), d23 = (1, 0, 0).
+CCD_XML = """
+<mujoco model="ccd">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="link1">
+      <joint name="j1" type="hinge" axis="0 0 1"/>
+      <geom type="capsule" fromto="0 0 0 2 0 0" size="0.05"/>
+      <body name="link2" pos="2 0 0">
+        <joint name="j2" type="hinge" axis="0 0 1"/>
+        <geom type="capsule" fromto="0 0 0 1 0 0" size="0.05"/>
+        <site name="p3" pos="1 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+# A second arm nobody wrote for the humanoid: other lengths (0.42 / 0.33 / 0.05), other
+# axis directions (tilted, negative), a body frame rotated away from the world, a
+# free-floating base, and a slide joint off the arm's path.
+SMALL_ARM_XML = """
+<mujoco model="small_arm">
+  <compiler angle="radian" autolimits="true"/>
+  <worldbody>
+    <body name="cart" pos="0 2 0">
+      <joint name="rail" type="slide" axis="1 0 0" range="-1 1"/>
+      <geom type="box" size="0.1 0.1 0.1"/>
+    </body>
+    <body name="base" pos="0.1 -0.2 0.8" euler="0.3 -0.2 0.5">
+      <freejoint name="float"/>
+      <geom type="box" size="0.1 0.1 0.05"/>
+      <body name="arm" pos="0 0 0.1">
+        <joint name="a_yaw" axis="0 0 -1" range="-2.5 2.5"/>
+        <joint name="a_pitch" axis="0 1 0" range="-1.8 1.8"/>
+        <joint name="a_roll" axis="0.6 0 0.8" range="-2.0 2.0"/>
+        <geom type="capsule" fromto="0 0 0 0.42 0 0" size="0.03"/>
+        <body name="fore" pos="0.42 0 0">
+          <joint name="a_elbow" axis="0 0 1" range="-2.4 0.1"/>
+          <geom type="capsule" fromto="0 0 0 0.33 0 0" size="0.025"/>
+          <body name="tool" pos="0.33 0 0">
+            <joint name="a_w1" axis="1 0 0" range="-2.0 2.0"/>
+            <joint name="a_w2" axis="0 -1 0" range="-1.2 1.2"/>
+            <joint name="a_w3" axis="0 0 1" range="-1.0 1.0"/>
+            <geom type="box" pos="0.03 0 0" size="0.03 0.02 0.01"/>
+            <site name="tip" pos="0.05 0 0"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def model(xml: str) -> mujoco.MjModel:
+    """Compile an inline MJCF string."""
+    return mujoco.MjModel.from_xml_string(xml)

@@ -1,0 +1,258 @@
+"""FK(IK(x)) = x for every solver on the humanoid's right arm and on an inline arm."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from humanoid_ik import Chain, SolverError, Target, TargetError, make_solver
+from humanoid_ik.rotations import mat_to_quat, rotation_log
+
+from .chains import SMALL_ARM_XML, model
+
+N = 500
+REACHING = ["two_link", "ccd", "jacobian_transpose", "pseudoinverse", "dls"]
+ARMS = {
+    "humanoid_right": lambda: Chain(),
+    "small_arm": lambda: Chain(model(SMALL_ARM_XML), "tip"),
+}
+
+
+def _targets(chain: Chain, n: int, seed: int, pose: bool, keep_wrist: bool = False):
+    """FK of seeded random in-range joint vectors (wrist at home for two_link)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        q = chain.random_q(rng)
+        if keep_wrist:
+            q[4:] = chain.q_home[4:]
+        p, R = chain.fk(q)
+        out.append(Target(p, mat_to_quat(R) if pose else None))
+    return out
+
+
+def _check_round_trips(chain: Chain, solver_name: str, targets, pose: bool):
+    solver = make_solver(solver_name)
+    checker = Chain(chain.model, chain.ee_name) if chain.ee_kind == "site" else None
+    worst_p, worst_r = 0.0, 0.0
+    for tgt in targets:
+        chain.reset()
+        res = solver.solve(chain, tgt)
+        assert np.all(np.isfinite(res.q))
+        assert chain.within_limits(res.q), (solver_name, res.q)
+        p, R = checker.fk(res.q)  # FK from a separate MjData
+        worst_p = max(worst_p, float(np.linalg.norm(p - tgt.position)))
+        assert res.position_error == pytest.approx(np.linalg.norm(p - tgt.position), abs=1e-12)
+        if pose:
+            worst_r = max(worst_r, float(np.linalg.norm(rotation_log(tgt.rotation @ R.T))))
+    return worst_p, worst_r
+
+
+@pytest.mark.parametrize("arm", list(ARMS))
+@pytest.mark.parametrize("solver_name", REACHING)
+def test_round_trip_position(arm, solver_name):
+    """500 reachable position targets: every solution within 1 mm and inside the ranges."""
+    chain = ARMS[arm]()
+    targets = _targets(chain, N, seed=11, pose=False, keep_wrist=solver_name == "two_link")
+    worst_p, _ = _check_round_trips(chain, solver_name, targets, pose=False)
+    assert worst_p < 1e-3
+
+
+@pytest.mark.parametrize("arm", list(ARMS))
+@pytest.mark.parametrize("solver_name", ["pseudoinverse", "dls"])
+def test_round_trip_pose(arm, solver_name):
+    """500 reachable pose targets: within 1 mm and 0.01 rad, inside the ranges."""
+    chain = ARMS[arm]()
+    worst_p, worst_r = _check_round_trips(chain, solver_name, _targets(chain, N, 12, True), True)
+    assert worst_p < 1e-3
+    assert worst_r < 1e-2
+
+
+def test_round_trip_pose_jacobian_transpose():
+    """The transpose method reaches pose targets too (slowly): 100 targets on the right arm."""
+    chain = Chain()
+    worst_p, worst_r = _check_round_trips(
+        chain, "jacobian_transpose", _targets(chain, 100, 13, True), True
+    )
+    assert worst_p < 1e-3
+    assert worst_r < 1e-2
+
+
+@pytest.mark.parametrize("solver_name", ["jacobian_transpose", "pseudoinverse", "dls"])
+def test_converges_from_singular_start(solver_name):
+    """From a straight arm (elbow at its 0 limit, a singular pose) the solvers converge."""
+    chain = Chain()
+    q0 = np.zeros(7)
+    p, _ = chain.fk([0.6, 0.3, 0.2, 1.2, 0.1, 0.2, 0.1])
+    res = make_solver(solver_name).solve(chain, p, q0=q0)
+    assert res.converged and res.position_error < 1e-4
+    assert np.all(np.isfinite(res.q))
+
+
+def test_error_decreases_dls():
+    """Each DLS iteration from home lowers the error, quadratically near the target."""
+    chain = Chain()
+    p, _ = chain.fk([0.8, 0.4, -0.3, 1.4, 0.2, 0.3, 0.1])
+    errors = []
+    for k in range(1, 8):
+        chain.reset()
+        res = make_solver("dls", max_iterations=k, restarts=0, tol=1e-12).solve(chain, p)
+        errors.append(res.position_error)
+    assert all(b < a for a, b in zip(errors, errors[1:], strict=False))
+    assert errors[-3] < 1e-3 and errors[-1] < 1e-9
+
+
+def test_nullspace_bias_pulls_toward_home():
+    """With a null-space gain the redundant arm ends closer to home on every target."""
+    chain = Chain()
+    both = 0
+    for tgt in _targets(chain, 40, 14, pose=False):
+        chain.reset()
+        plain = make_solver("dls", restarts=0).solve(chain, tgt)
+        chain.reset()
+        biased = make_solver("dls", restarts=0, nullspace_gain=0.2).solve(chain, tgt)
+        if plain.converged and biased.converged:
+            both += 1
+            assert np.linalg.norm(biased.q - chain.q_home) < np.linalg.norm(plain.q - chain.q_home)
+    assert both >= 25
+
+
+@pytest.mark.parametrize("solver_name", ["ccd", "jacobian_transpose", "pseudoinverse", "dls"])
+def test_unreachable_target_never_nan(solver_name):
+    """A target 2 m away ends as max_iterations with finite joints inside the ranges."""
+    chain = Chain()
+    res = make_solver(solver_name, max_iterations=300, restarts=1).solve(chain, [2.0, -0.2, 1.4])
+    assert res.status == "max_iterations" and not res.converged
+    assert np.all(np.isfinite(res.q)) and chain.within_limits(res.q)
+    # the arm stretches toward it: within 0.1 m of the 1.37 m miss of a straight arm
+    assert res.position_error == pytest.approx(2.0 - 0.63, abs=0.1)
+
+
+def test_two_link_unreachable_points_at_target():
+    """two_link beyond reach: status unreachable, the distance reported, arm aimed at it."""
+    chain = Chain()
+    target = np.array([1.5, -0.19, 1.40])
+    res = make_solver("two_link").solve(chain, target)
+    assert res.status == "unreachable" and not res.converged
+    shell = make_solver("two_link").shell(chain)
+    assert f"{1.5 - shell.r_max:.6g} m beyond" in res.message
+    chain.set_q(res.q)
+    shoulder = chain.data.site("right_shoulder_site").xpos.copy()
+    hand = chain.position.copy()
+    direction = (hand - shoulder) / np.linalg.norm(hand - shoulder)
+    np.testing.assert_allclose(direction, [1.0, 0.0, 0.0], atol=1e-9)
+    assert res.position_error == pytest.approx(1.5 - shell.r_max, abs=1e-9)
+
+
+@pytest.mark.parametrize("r_scale", [0.0, 0.5])
+def test_two_link_inner_hole(r_scale):
+    """A target at the shoulder or inside the inner hole is unreachable, without NaN."""
+    chain = Chain()
+    tl = make_solver("two_link")
+    shell = tl.shell(chain)
+    target = np.array([0.0, -0.19, 1.40]) + np.array([r_scale * shell.r_min, 0.0, 0.0])
+    res = tl.solve(chain, target)
+    assert res.status == "unreachable" and "inner hole" in res.message
+    assert np.all(np.isfinite(res.q))
+
+
+def test_two_link_on_the_boundary():
+    """A target exactly at r_max is reached with the elbow straight."""
+    chain = Chain()
+    tl = make_solver("two_link")
+    shell = tl.shell(chain)
+    target = np.array([0.0, -0.19, 1.40]) + shell.r_max * np.array([0.6, 0.0, 0.8])
+    res = tl.solve(chain, target)
+    assert res.converged and res.position_error < 1e-9
+
+
+def test_look_at_aims_the_gaze():
+    """look_at turns the neck so the gaze site's x axis points at the target."""
+    chain = Chain(None, "gaze_site")
+    target = np.array([0.8, -0.5, 1.2])
+    res = make_solver("look_at").solve(chain, target)
+    assert res.converged and res.orientation_error < 1e-6
+    p, R = chain.fk(res.q)
+    d = (target - p) / np.linalg.norm(target - p)
+    assert float(R[:, 0] @ d) == pytest.approx(1.0, abs=1e-12)
+    assert res.position_error < 1e-6
+
+
+def test_look_at_behind_is_out_of_range():
+    """A target behind the head needs more neck yaw than the range allows: not converged."""
+    chain = Chain(None, "gaze_site")
+    res = make_solver("look_at").solve(chain, [-1.0, 0.0, 1.6])
+    assert not res.converged and "joint ranges" in res.message
+    assert chain.within_limits(res.q)
+
+
+def test_look_at_rotation_degenerate_up():
+    """When forward is parallel to up another up is picked and the frame stays orthonormal."""
+    from humanoid_ik import look_at
+
+    R = look_at([0, 0, 0], [0, 0, 2], up=[0, 0, 1])
+    np.testing.assert_allclose(R[:, 0], [0, 0, 1], atol=1e-12)
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    with pytest.raises(TargetError, match="coincides"):
+        look_at([1, 1, 1], [1, 1, 1])
+    with pytest.raises(TargetError, match="forward axis 'w' unknown"):
+        look_at([0, 0, 0], [1, 0, 0], forward_axis="w")
+
+
+def test_solver_options_are_checked():
+    """Unknown options, wrong types, and out-of-range values name the option."""
+    with pytest.raises(SolverError, match="solver 'nope' unknown; solvers: ccd, dls"):
+        make_solver("nope")
+    with pytest.raises(SolverError, match="option 'damp' unknown for solver 'dls'; options: "):
+        make_solver("dls", damp=1)
+    with pytest.raises(SolverError, match="'damping' of solver 'dls' must be a number"):
+        make_solver("dls", damping="big")
+    with pytest.raises(SolverError, match="must be a finite number >= 0"):
+        make_solver("dls", damping=-1.0)
+    with pytest.raises(SolverError, match="'max_iterations' .* must be an integer"):
+        make_solver("dls", max_iterations=2.5)
+    with pytest.raises(SolverError, match="'nudge' of solver 'ccd' must be in \\(0, 1\\]"):
+        make_solver("ccd", nudge=1.5)
+    with pytest.raises(SolverError, match="'method' of solver 'two_link' is 'euler'; choices"):
+        make_solver("two_link", method="euler")
+    with pytest.raises(SolverError, match="'up' of solver 'look_at' must be 3 finite numbers"):
+        make_solver("look_at", up=[0, 1])
+    with pytest.raises(SolverError, match="'restarts' of solver 'dls' must be a number"):
+        make_solver("dls", restarts=True)
+
+
+def test_position_only_solvers_refuse_pose_targets():
+    """two_link, ccd and look_at refuse orientation targets with the reason."""
+    chain = Chain()
+    tgt = Target([0.3, -0.2, 1.1], [1, 0, 0, 0])
+    for name in ("two_link", "ccd"):
+        with pytest.raises(SolverError, match=f"{name} solves position targets only"):
+            make_solver(name).solve(chain, tgt)
+
+
+def test_two_link_needs_a_shoulder():
+    """A planar two-hinge chain has no spherical shoulder: two_link says why."""
+    from .chains import CCD_XML
+
+    chain = Chain(model(CCD_XML), "p3")
+    reason = make_solver("two_link").applicable(chain)
+    assert reason is not None and "3 shoulder hinges" in reason
+
+
+def test_targets_are_checked():
+    """NaN, wrong shapes, zero and non-unit quaternions are refused with the value."""
+    with pytest.raises(TargetError, match="not finite"):
+        Target([0.0, math.nan, 0.0])
+    with pytest.raises(TargetError, match="3 values"):
+        Target([0.0, 1.0])
+    with pytest.raises(TargetError, match="zero norm"):
+        Target([0, 0, 0], [0, 0, 0, 0])
+    with pytest.raises(TargetError, match="norm 2; expected a unit quaternion"):
+        Target([0, 0, 0], [2, 0, 0, 0])
+    with pytest.raises(TargetError, match="4 values"):
+        Target([0, 0, 0], [1, 0, 0])
+    t = Target([0, 0, 0], [0.7071, 0, 0, 0.7071])
+    assert np.linalg.norm(t.quat) == pytest.approx(1.0, abs=1e-15)
