@@ -142,7 +142,9 @@ def test_slide_joint_named_explicitly_is_refused():
 
 def test_unknown_names_list_the_valid_ones():
     """Unknown site, body and joint names raise errors listing what exists."""
-    with pytest.raises(NameNotFoundError, match="site 'hand' not in model; sites: .*right_palm_site"):
+    with pytest.raises(
+        NameNotFoundError, match="site 'hand' not in model; sites: .*right_palm_site"
+    ):
         Chain(None, "hand")
     with pytest.raises(NameNotFoundError, match="body 'hand' not in model; bodies: .*"):
         Chain(None, body="hand")

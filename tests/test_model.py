@@ -51,8 +51,9 @@ def test_arm_proportions(model, side):
     data = mujoco.MjData(model)
     data.qpos[:] = model.key("home").qpos
     mujoco.mj_kinematics(model, data)
-    s, e, w, p = (_site(model, data, f"{side}_{n}_site") for n in
-                  ("shoulder", "elbow", "wrist", "palm"))
+    s, e, w, p = (
+        _site(model, data, f"{side}_{n}_site") for n in ("shoulder", "elbow", "wrist", "palm")
+    )
     assert np.linalg.norm(e - s) == pytest.approx(0.30, abs=1e-9)
     assert np.linalg.norm(w - e) == pytest.approx(0.25, abs=1e-9)
     assert np.linalg.norm(p - w) == pytest.approx(0.08, abs=1e-9)

@@ -168,8 +168,9 @@ class TwoLink(Solver):
             direction = t if r > 1e-12 else v0
             R = self.shoulder_rotation(v0, direction)
             _, q[:3], _ = _fit_shoulder(chain, R, direction, shoulder_axes, q0[:3])
-            violation = float(np.sum(np.maximum(chain.lower - q, 0.0)
-                                     + np.maximum(q - chain.upper, 0.0)))
+            violation = float(
+                np.sum(np.maximum(chain.lower - q, 0.0) + np.maximum(q - chain.upper, 0.0))
+            )
             if violation == 0.0:
                 best = (0.0, q)
                 break
