@@ -10,6 +10,7 @@ from humanoid_ik.solvers.ccd import CCD
 from humanoid_ik.solvers.dls import DLS
 from humanoid_ik.solvers.jacobian_transpose import JacobianTranspose
 from humanoid_ik.solvers.look_at import LookAt
+from humanoid_ik.solvers.mink_ik import MinkSolver
 from humanoid_ik.solvers.pseudoinverse import PseudoInverse
 from humanoid_ik.solvers.two_link import TwoLink
 
@@ -22,11 +23,13 @@ __all__ = [
     "PseudoInverse",
     "DLS",
     "LookAt",
+    "MinkSolver",
     "make_solver",
 ]
 
 SOLVERS: dict[str, type[Solver]] = {
-    cls.name: cls for cls in (TwoLink, CCD, JacobianTranspose, PseudoInverse, DLS, LookAt)
+    cls.name: cls
+    for cls in (TwoLink, CCD, JacobianTranspose, PseudoInverse, DLS, LookAt, MinkSolver)
 }
 
 

@@ -1,0 +1,380 @@
+"""mink extensions used by the ``mink`` solver: position and gaze tasks, range and velocity
+limits on chosen joints, and a collision limit in displacement form.
+
+This module imports mink (and through it qpsolvers and SciPy, about 0.2 s), so
+:mod:`humanoid_ik.solvers.mink_ik` imports it only when a mink solver is built.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mink
+import mujoco
+import numpy as np
+from mink.limits.collision_avoidance_limit import (
+    compute_contact_normal_jacobian as _contact_normal_jacobian,
+)
+from numpy.typing import ArrayLike, NDArray
+
+from humanoid_ik.errors import TargetError
+
+__all__ = ["PositionTask", "GazeTask", "JointRangeLimit", "JointVelocityLimit", "CollisionLimit"]
+
+
+class PositionTask(mink.Task):
+    """Move a site or body origin onto a point, in the world frame::
+
+        e(q) = p - p*          # (3,) [m]
+        J(q) = J_v             # (3, nv), mj_jacSite / mj_jacBody
+
+    A position-only ``mink.FrameTask`` measures its error with the SE(3) logarithm,
+    whose translation part depends on the frame's rotation relative to the target's;
+    with the orientation cost at zero that coupling still steers the wrist (and, with
+    the target's rotation re-set to the current one each step, makes a blocked hand
+    chatter). This task is the plain Cartesian error.
+
+    Args:
+        model: the MuJoCo model.
+        name: site or body name.
+        kind: ``"site"`` or ``"body"``.
+        cost: weight [1/m], a scalar.
+        gain: task gain in [0, 1].
+        lm_damping: Levenberg-Marquardt damping (see ``mink.Task``).
+    """
+
+    k: int = 3
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        name: str,
+        kind: str = "site",
+        cost: float = 1.0,
+        gain: float = 1.0,
+        lm_damping: float = 0.0,
+    ):
+        super().__init__(cost=np.full(3, float(cost)), gain=gain, lm_damping=lm_damping)
+        self.kind = kind
+        self.obj_id = int(model.site(name).id if kind == "site" else model.body(name).id)
+        self.target: NDArray[np.float64] | None = None
+        self._jacp = np.zeros((3, model.nv))  # (3, nv)
+        self._e = np.empty(3)
+
+    def set_target(self, point: ArrayLike) -> None:
+        """Reach ``point`` ``(3,)`` [m] in the world frame.
+
+        Raises:
+            TargetError: not 3 finite numbers.
+        """
+        p = np.asarray(point, dtype=np.float64)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise TargetError(
+                f"position target must be 3 finite numbers, got {np.asarray(point)!r}"
+            )
+        self.target = p.copy()
+
+    def _update(self, configuration: mink.Configuration) -> None:
+        if self.target is None:
+            raise mink.TargetNotSet(self.__class__.__name__)
+        m, d = configuration.model, configuration.data
+        if self.kind == "site":
+            np.subtract(d.site_xpos[self.obj_id], self.target, out=self._e)
+            mujoco.mj_jacSite(m, d, self._jacp, None, self.obj_id)
+        else:
+            np.subtract(d.xpos[self.obj_id], self.target, out=self._e)
+            mujoco.mj_jacBody(m, d, self._jacp, None, self.obj_id)
+
+    def compute_error(self, configuration: mink.Configuration) -> NDArray[np.float64]:
+        """``e = p - p*`` ``(3,)`` [m] (a copy)."""
+        self._update(configuration)
+        return self._e.copy()
+
+    def compute_jacobian(self, configuration: mink.Configuration) -> NDArray[np.float64]:
+        """``J = J_v`` ``(3, nv)`` (a copy)."""
+        self._update(configuration)
+        return self._jacp.copy()
+
+    def compute_qp_residual(
+        self, configuration: mink.Configuration
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        self._update(configuration)
+        return self._weighted_residual(self._e, self._jacp)
+
+    def compute_qp_objective(self, configuration: mink.Configuration) -> mink.Objective:
+        self._update(configuration)
+        return self._assemble_qp(self._e, self._jacp, configuration._eye_nv)
+
+
+class GazeTask(mink.Task):
+    r"""Point a site's forward axis at a point in the world.
+
+    With ``R`` and ``p`` the site's rotation and position, ``a`` the unit forward axis in
+    the site frame and ``p*`` the target point::
+
+        f = R a,  r = p* - p,  n = |r|,  d = r / n
+        e(q) = f - d                                    # (3,), |e| = 2 sin(theta / 2)
+        J(q) = -[f]x J_w + (I - d d') J_v / n           # (3, nv)
+
+    where ``theta`` is the angle between the axis and the direction to the target and
+    ``J_v``, ``J_w`` are the world-frame linear and angular Jacobians of the site
+    (``mj_jacSite``). ``df = w x f`` gives the first term; ``dd = (I - d d') dr / n``
+    with ``dr = -J_v dq`` the second. The error is a world-frame rotation of mink's
+    ``LookAtTask`` error ``a - R' d``, so with a scalar cost both give the same QP
+    objective; this task reads the site Jacobian once and builds no Lie-group objects.
+    ``e`` vanishes only when the axis points at the target (not when it points away,
+    unlike ``f x d``), and has rank two: roll about the gaze line is left free.
+
+    Args:
+        model: the MuJoCo model.
+        site: name of the gaze site.
+        axis: forward axis ``(3,)`` in the site frame (normalised here).
+        cost: weight of the task [1/unit of e], a scalar.
+        gain: task gain in [0, 1].
+        lm_damping: Levenberg-Marquardt damping (see ``mink.Task``).
+
+    Raises:
+        TargetError: a zero ``axis``, a bad target.
+        KeyError: ``site`` not in the model (callers check names first).
+    """
+
+    k: int = 3
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        site: str,
+        axis: ArrayLike = (1.0, 0.0, 0.0),
+        cost: float = 1.0,
+        gain: float = 1.0,
+        lm_damping: float = 0.0,
+    ):
+        super().__init__(cost=np.full(3, float(cost)), gain=gain, lm_damping=lm_damping)
+        self.site = site
+        self.site_id = int(model.site(site).id)
+        a = np.asarray(axis, dtype=np.float64)
+        na = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
+        if not na > 1e-12:
+            raise TargetError(f"gaze axis {a.tolist()} must be a non-zero 3-vector")
+        self.axis = a / na
+        self.target: NDArray[np.float64] | None = None
+        self._jacp = np.zeros((3, model.nv))  # (3, nv)
+        self._jacr = np.zeros((3, model.nv))  # (3, nv)
+        self._f = np.empty(3)
+        self._d = np.empty(3)
+        self._e = np.empty(3)
+        self._J = np.empty((3, model.nv))  # (3, nv)
+        self._P = np.empty((3, 3))
+        self._n = 1.0
+
+    def set_target(self, point: ArrayLike) -> None:
+        """Look at ``point`` ``(3,)`` [m] in the world frame.
+
+        Raises:
+            TargetError: not 3 finite numbers.
+        """
+        p = np.asarray(point, dtype=np.float64)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise TargetError(f"gaze target must be 3 finite numbers, got {np.asarray(point)!r}")
+        self.target = p.copy()
+
+    def _update(self, configuration: mink.Configuration) -> None:
+        """Fill ``_f``, ``_d``, ``_n``, ``_e`` and ``_J`` at the configuration's kinematics."""
+        if self.target is None:
+            raise mink.TargetNotSet(self.__class__.__name__)
+        m, d = configuration.model, configuration.data
+        sid = self.site_id
+        R = d.site_xmat[sid].reshape(3, 3)
+        f = np.dot(R, self.axis, out=self._f)
+        r = np.subtract(self.target, d.site_xpos[sid], out=self._d)
+        n = max(float(np.sqrt(r @ r)), 1e-12)
+        r /= n  # now d
+        self._n = n
+        np.subtract(f, r, out=self._e)
+        mujoco.mj_jacSite(m, d, self._jacp, self._jacr, sid)
+        # -[f]x J_w: column i is w_i x f, with w_i column i of J_w
+        jw, J = self._jacr, self._J
+        J[0] = jw[1] * f[2] - jw[2] * f[1]
+        J[1] = jw[2] * f[0] - jw[0] * f[2]
+        J[2] = jw[0] * f[1] - jw[1] * f[0]
+        P = self._P
+        np.outer(r, r, out=P)
+        np.subtract(np.eye(3), P, out=P)
+        P /= n
+        J += P @ self._jacp
+
+    def compute_error(self, configuration: mink.Configuration) -> NDArray[np.float64]:
+        """``e = f - d`` ``(3,)`` (a copy)."""
+        self._update(configuration)
+        return self._e.copy()
+
+    def compute_jacobian(self, configuration: mink.Configuration) -> NDArray[np.float64]:
+        """``J = de/dq`` ``(3, nv)`` (a copy)."""
+        self._update(configuration)
+        return self._J.copy()
+
+    def compute_qp_residual(
+        self, configuration: mink.Configuration
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        self._update(configuration)
+        return self._weighted_residual(self._e, self._J)
+
+    def compute_qp_objective(self, configuration: mink.Configuration) -> mink.Objective:
+        self._update(configuration)
+        return self._assemble_qp(self._e, self._J, configuration._eye_nv)
+
+    def angle(self, configuration: mink.Configuration) -> tuple[float, float]:
+        """``(theta [rad], miss [m])``: the angle between the axis and the target direction,
+        and the distance from the target to the gaze ray (the distance to the site when
+        the target is behind it)."""
+        if self.target is None:
+            raise mink.TargetNotSet(self.__class__.__name__)
+        d = configuration.data
+        sid = self.site_id
+        f = d.site_xmat[sid].reshape(3, 3) @ self.axis
+        v = self.target - d.site_xpos[sid]
+        dist = float(np.linalg.norm(v))
+        if dist < 1e-12:
+            return 0.0, 0.0
+        theta = float(np.arctan2(np.linalg.norm(np.cross(f, v)), f @ v))
+        return theta, dist * float(np.sin(theta)) if theta < np.pi / 2 else dist
+
+
+class JointRangeLimit(mink.Limit):
+    """Box limits on chosen hinge or slide joints only::
+
+        gain (q_min - q) <= dq <= gain (q_max - q)      for the chosen joints
+
+    Joints left out (those the solver freezes) get no row, so a frozen joint outside
+    its range cannot make the QP infeasible. Unlimited joints get no row either.
+    ``G`` is built once; ``h`` is refilled in place.
+
+    Args:
+        model: the MuJoCo model.
+        joint_ids: hinge or slide joint ids.
+        gain: fraction in (0, 1] of the distance to a range end a step may cover.
+    """
+
+    def __init__(self, model: mujoco.MjModel, joint_ids: Sequence[int], gain: float = 0.95):
+        ids = [int(j) for j in joint_ids if model.jnt_limited[j]]
+        self.joint_ids = np.array(ids, dtype=np.int64)
+        self.qpos_adr = model.jnt_qposadr[self.joint_ids].astype(np.int64)
+        dof_adr = model.jnt_dofadr[self.joint_ids].astype(np.int64)
+        self.lower = model.jnt_range[self.joint_ids, 0].copy()
+        self.upper = model.jnt_range[self.joint_ids, 1].copy()
+        self.gain = float(gain)
+        k = len(ids)
+        G = np.zeros((2 * k, model.nv))  # (2k, nv)
+        G[np.arange(k), dof_adr] = 1.0
+        G[k + np.arange(k), dof_adr] = -1.0
+        self.G = G
+        self._h = np.empty(2 * k)
+
+    def compute_qp_inequalities(
+        self, configuration: mink.Configuration, dt: float
+    ) -> mink.Constraint:
+        del dt  # a position limit
+        if self.G.shape[0] == 0:
+            return mink.Constraint()
+        k = self.G.shape[0] // 2
+        q = configuration.data.qpos[self.qpos_adr]
+        h = self._h
+        np.subtract(self.upper, q, out=h[:k])
+        np.subtract(q, self.lower, out=h[k:])
+        h *= self.gain
+        return mink.Constraint(G=self.G, h=h)
+
+
+class CollisionLimit(mink.CollisionAvoidanceLimit):
+    """mink's collision avoidance limit with its bound in displacement form.
+
+    Each pair closer than ``collision_detection_distance`` adds the row::
+
+        -n' (J_2 - J_1) dq <= gain (d - d_min)      (0 when d <= d_min)
+
+    the distance ``d`` along the contact normal ``n`` (from ``mj_geomDistance``) may
+    shrink by at most ``gain`` times its margin over ``d_min`` in one step. mink 1.3
+    divides that bound by ``dt`` although ``dq`` is a displacement, which lets geoms
+    close ``1 / dt`` times faster at small steps; here the bound holds whatever the
+    frame rate. Pairs are chosen as in mink (same body, parent and child, and
+    contype/conaffinity filtered out); the rows use mink's contact normal Jacobian.
+
+    The row is the distance's first-order change; a step that slides a geom along a
+    curved surface loses distance at second order. :meth:`distances` measures every
+    pair after a step so the caller can shorten it (see ``UpperBodyIK``).
+    """
+
+    def __init__(self, model: mujoco.MjModel, geom_pairs, **kwargs):
+        super().__init__(model, geom_pairs, **kwargs)
+        n = len(self.geom_id_pairs)
+        self._pairs = np.array(self.geom_id_pairs, dtype=np.int64).reshape(n, 2)
+        self._G = np.zeros((n, model.nv))  # (pairs, nv)
+        self._h = np.empty(n)
+        self.last_distances = np.full(n, np.inf)
+        """Distance [m] of every pair (capped at the detection distance) at the last
+        :meth:`compute_qp_inequalities`."""
+
+    def distances(self, data: mujoco.MjData, out: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Fill ``out`` ``(pairs,)`` with each pair's distance [m], capped at the detection
+        distance (negative when the geoms overlap)."""
+        m, ft, cap = self.model, self._fromto, self.collision_detection_distance
+        for i, (g1, g2) in enumerate(self.geom_id_pairs):
+            out[i] = mujoco.mj_geomDistance(m, data, g1, g2, cap, ft)
+        return out
+
+    def compute_qp_inequalities(
+        self, configuration: mink.Configuration, dt: float
+    ) -> mink.Constraint:
+        del dt  # the bound is a displacement
+        m, data = self.model, configuration.data
+        G, h, dist_out = self._G, self._h, self.last_distances
+        G.fill(0.0)
+        h.fill(np.inf)
+        cap, dmin, gain = (
+            self.collision_detection_distance,
+            self.minimum_distance_from_collisions,
+            self.gain,
+        )
+        ft, normal, jac1, jac2 = self._fromto, self._normal, self._jac1, self._jac2
+        for i, (g1, g2) in enumerate(self.geom_id_pairs):
+            dist = mujoco.mj_geomDistance(m, data, g1, g2, cap, ft)
+            dist_out[i] = dist
+            if abs(dist - cap) < 1e-12:
+                continue
+            row = _contact_normal_jacobian(m, data, g1, g2, ft, normal, jac1, jac2)
+            h[i] = (gain * (dist - dmin) if dist > dmin else 0.0) + self.bound_relaxation
+            G[i] = -row if dist >= 0 else row
+        return mink.Constraint(G=G, h=h)
+
+
+class JointVelocityLimit(mink.Limit):
+    """Box limits on the displacement of chosen hinge or slide joints in one step::
+
+        -v_max dt <= dq <= v_max dt      for the chosen joints
+
+    ``G`` is built once; ``h`` is refilled in place.
+
+    Args:
+        model: the MuJoCo model.
+        joint_ids: hinge or slide joint ids.
+        max_velocity: ``v_max`` [rad/s] (or [m/s] for slide joints), one for all.
+    """
+
+    def __init__(self, model: mujoco.MjModel, joint_ids: Sequence[int], max_velocity: float):
+        dof_adr = model.jnt_dofadr[np.asarray(joint_ids, dtype=np.int64)].astype(np.int64)
+        k = len(dof_adr)
+        G = np.zeros((2 * k, model.nv))  # (2k, nv)
+        G[np.arange(k), dof_adr] = 1.0
+        G[k + np.arange(k), dof_adr] = -1.0
+        self.G = G
+        self.max_velocity = float(max_velocity)
+        self._h = np.empty(2 * k)
+
+    def compute_qp_inequalities(
+        self, configuration: mink.Configuration, dt: float
+    ) -> mink.Constraint:
+        del configuration
+        if self.G.shape[0] == 0:
+            return mink.Constraint()
+        self._h.fill(self.max_velocity * dt)
+        return mink.Constraint(G=self.G, h=self._h)
