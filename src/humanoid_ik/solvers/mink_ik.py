@@ -532,7 +532,10 @@ class UpperBodyIK:
             self._dq[:] = 0.0
             return False
         self._dq[:] = sol.x
-        step = self._dq[prob.dof_adr]
+        # the QP meets its bounds to the solver's tolerance (about 1e-6 for daqp); clip
+        # so the velocity and range limits hold exactly
+        vmax = self.options["max_velocity"] * dt
+        step = np.clip(self._dq[prob.dof_adr], -vmax, vmax)
         q_new = q_act + step
         np.clip(q_new, prob.lower, prob.upper, out=q_new)
         qpos[prob.qpos_adr] = q_new
@@ -583,6 +586,15 @@ class UpperBodyIK:
         if status is None:
             status = "converged" if ok else "max_iterations"
         return UpperBodyResult(qpos, per, ok, iterations, status, "" if ok else message)
+
+    def measure(self, targets: Mapping[str, Target | ArrayLike | None]) -> UpperBodyResult:
+        """The errors toward ``targets`` at the current pose, without a step.
+
+        Raises:
+            TargetError: as in :meth:`step`.
+        """
+        key, parsed = self._set_targets(targets)
+        return self._result(parsed, [n for n, _ in key], 0)
 
     def step(self, targets: Mapping[str, Target | ArrayLike | None], dt: float) -> UpperBodyResult:
         """One QP step toward ``targets`` with the joint velocity limit, for tracking.

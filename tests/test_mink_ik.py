@@ -1,0 +1,560 @@
+"""The mink solver: single-chain IK, both hands + gaze in one QP, limits, collisions,
+frozen joints, the gaze and position task Jacobians, and the errors it raises.
+
+Real mink and daqp throughout, no mocks.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import mink
+import mujoco
+import numpy as np
+import pytest
+
+from humanoid_ik import (
+    SOLVERS,
+    Chain,
+    ChainError,
+    NameNotFoundError,
+    SolverError,
+    Target,
+    TargetError,
+    make_solver,
+    solve,
+)
+from humanoid_ik.rotations import mat_to_quat, rotation_log
+from humanoid_ik.solvers.mink_ext import (
+    CollisionLimit,
+    GazeTask,
+    JointRangeLimit,
+    JointVelocityLimit,
+    PositionTask,
+)
+from humanoid_ik.solvers.mink_ik import (
+    DEFAULT_COLLISION_PAIRS,
+    MinkSolver,
+    UpperBodyIK,
+    UpperBodyResult,
+)
+
+from .chains import SMALL_ARM_XML, model
+
+ARM_GEOMS = [
+    "right_forearm_collision",
+    "right_hand_collision",
+    "left_forearm_collision",
+    "left_hand_collision",
+]
+BODY_GEOMS = ["torso_collision", "chest_collision", "head_collision"]
+
+
+def _targets(chain: Chain, n: int, seed: int, pose: bool) -> list[Target]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        p, R = chain.fk(chain.random_q(rng))
+        out.append(Target(p, mat_to_quat(R) if pose else None))
+    chain.reset()
+    return out
+
+
+def _min_distance(m: mujoco.MjModel, d: mujoco.MjData) -> float:
+    """Smallest distance [m] of any forearm/hand geom to torso, chest or head, or of
+    the two hands to each other (MuJoCo's ``mj_geomDistance``)."""
+    ft = np.zeros(6)
+    gid = [m.geom(n).id for n in ARM_GEOMS]
+    bid = [m.geom(n).id for n in BODY_GEOMS]
+    dists = [mujoco.mj_geomDistance(m, d, a, b, 1.0, ft) for a in gid for b in bid]
+    dists.append(mujoco.mj_geomDistance(m, d, gid[1], gid[3], 1.0, ft))
+    return min(dists)
+
+
+def _frozen_dofs(m: mujoco.MjModel, chain: Chain) -> np.ndarray:
+    return np.setdiff1d(np.arange(m.nv), chain.dof_adr)
+
+
+# ---------------------------------------------------------------------------- single chain
+@pytest.mark.parametrize(
+    "make_chain",
+    [lambda: Chain(), lambda: Chain(model(SMALL_ARM_XML), "tip")],
+    ids=["humanoid", "small_arm"],
+)
+def test_single_chain_reaches_fk_targets(make_chain):
+    """60 reachable position targets: every solution within 1 mm and inside the ranges."""
+    chain = make_chain()
+    checker = Chain(chain.model, chain.ee_name)
+    solver = make_solver("mink")
+    for tgt in _targets(chain, 60, seed=21, pose=False):
+        chain.reset()
+        res = solver.solve(chain, tgt)
+        p, _ = checker.fk(res.q)
+        assert np.linalg.norm(p - tgt.position) < 1e-3
+        assert res.position_error == pytest.approx(np.linalg.norm(p - tgt.position), abs=1e-12)
+        assert chain.within_limits(res.q, tol=0.0)
+        assert res.converged and res.solver == "mink"
+
+
+def test_single_chain_reaches_pose_targets():
+    """40 reachable pose targets on the right arm: within 1 mm and 0.01 rad, in range."""
+    chain = Chain()
+    checker = Chain()
+    solver = MinkSolver()
+    for tgt in _targets(chain, 40, seed=22, pose=True):
+        chain.reset()
+        res = solver.solve(chain, tgt)
+        p, R = checker.fk(res.q)
+        assert np.linalg.norm(p - tgt.position) < 1e-3
+        assert np.linalg.norm(rotation_log(tgt.rotation @ R.T)) < 1e-2
+        assert chain.within_limits(res.q, tol=0.0)
+
+
+@pytest.mark.parametrize(
+    "make_chain",
+    [lambda: Chain(), lambda: Chain(model(SMALL_ARM_XML), "tip")],
+    ids=["humanoid", "small_arm"],
+)
+def test_joints_outside_the_chain_stay_exactly(make_chain):
+    """Neck, other arm, free base and slide joints keep their values bit for bit."""
+    chain = make_chain()
+    m = chain.model
+    rng = np.random.default_rng(3)
+    others = np.setdiff1d(np.arange(m.nq), chain.qpos_adr)
+    chain.data.qpos[others] += rng.uniform(-0.3, 0.3, others.size)
+    mujoco.mj_normalizeQuat(m, chain.data.qpos)
+    before = chain.data.qpos[others].copy()
+    solver = MinkSolver()
+    for tgt in _targets(chain, 10, seed=4, pose=False):
+        chain.data.qpos[others] = before
+        res = solver.solve(chain, tgt)
+        assert res.converged
+        ik = solver.upper_body(chain)
+        assert np.array_equal(ik.q[others], before)
+        assert np.all(np.abs(ik.last_dq[_frozen_dofs(m, chain)]) < 1e-12)
+
+
+def test_mink_by_name_in_solve_and_registry():
+    """'mink' is registered and works through api.solve with pose targets."""
+    assert SOLVERS["mink"] is MinkSolver
+    chain = Chain()
+    p, R = chain.fk([0.5, 0.3, 0.1, 1.1, 0.2, 0.1, 0.0])
+    chain.reset()
+    res = solve(chain, p, "mink", quat=mat_to_quat(R))
+    assert res.converged and res.position_error < 1e-4 and res.orientation_error < 1e-3
+
+
+def test_importing_the_package_does_not_import_mink():
+    """import humanoid_ik stays light: mink is imported when a mink solver is built."""
+    code = "import sys, humanoid_ik; print('mink' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+# ---------------------------------------------------------------------------- infeasible start
+def test_frozen_joint_outside_its_range_does_not_fail():
+    """A frozen joint outside its range: the raw mink QP is infeasible, ours solves."""
+    chain = Chain()
+    m = chain.model
+    elbow_l = m.joint("left_elbow_joint")
+    neck = m.joint("neck_yaw_joint")
+    chain.data.qpos[elbow_l.qposadr[0]] = -0.5  # range [0, 2.62]
+    chain.data.qpos[neck.qposadr[0]] = 2.0  # range [-1.4, 1.4]
+
+    # mink's own limit on every joint plus the freeze: no solution
+    cfg = mink.Configuration(m, chain.data.qpos.copy())
+    task = mink.FrameTask("right_palm_site", "site", position_cost=1.0, orientation_cost=0.0)
+    task.set_target(mink.SE3.from_translation(np.array([0.3, -0.3, 1.1])))
+    freeze = mink.DofFreezingTask(m, _frozen_dofs(m, chain).tolist())
+    with pytest.raises(mink.NoSolutionFound):
+        mink.solve_ik(
+            cfg, [task], 0.01, "daqp", limits=[mink.ConfigurationLimit(m)], constraints=[freeze]
+        )
+
+    before = chain.data.qpos.copy()
+    res = MinkSolver().solve(chain, [0.3, -0.3, 1.1])
+    assert res.converged
+    ik = make_solver("mink").upper_body(chain)
+    ik.set_q(before)
+    r = ik.step({"right_palm_site": [0.3, -0.3, 1.1]}, 0.01)
+    assert r.q[elbow_l.qposadr[0]] == -0.5 and r.q[neck.qposadr[0]] == 2.0
+    assert chain.within_limits(r.q[chain.qpos_adr], tol=0.0)
+
+
+def test_active_joint_outside_its_range_is_moved_inside():
+    """An active joint starting outside its range is clipped in before the step."""
+    ik = UpperBodyIK()
+    q = ik.q_home.copy()
+    elbow = ik.model.joint("right_elbow_joint").qposadr[0]
+    q[elbow] = -0.4
+    ik.set_q(q)
+    res = ik.step({"right_palm_site": [0.3, -0.3, 1.1]}, 0.01)
+    assert 0.0 <= res.q[elbow] <= 2.62
+
+
+# ---------------------------------------------------------------------------- tracking
+def test_limits_never_violated_over_a_long_tracking_run():
+    """2000 steps after targets sweeping through and far beyond the workspace: every
+    joint inside its range and every step within the velocity limit."""
+    ik = UpperBodyIK(max_velocity=3.0)
+    chains = list(ik.chains.values())
+    lo = np.concatenate([c.lower for c in chains])
+    hi = np.concatenate([c.upper for c in chains])
+    adr = np.concatenate([c.qpos_adr for c in chains])
+    dt = 0.01
+    prev = ik.q[adr]
+    at_limit = 0
+    for i in range(2000):
+        t = i * dt
+        right = [
+            0.2 + 0.9 * math.sin(1.3 * t),
+            -0.3 + 0.9 * math.cos(0.7 * t),
+            1.2 + 0.8 * math.sin(t),
+        ]
+        left = [
+            0.2 + 0.9 * math.cos(1.1 * t),
+            0.3 + 0.9 * math.sin(0.9 * t),
+            1.2 - 0.8 * math.sin(t),
+        ]
+        gaze = [math.cos(0.5 * t), 2.0 * math.sin(0.5 * t), 1.5 + math.sin(0.3 * t)]
+        ik.step({"right_palm_site": right, "left_palm_site": left, "gaze_site": gaze}, dt)
+        q = ik.q[adr]
+        assert np.all(q >= lo) and np.all(q <= hi), i
+        assert np.all(np.abs(q - prev) <= 3.0 * dt + 1e-9), i
+        at_limit += int(np.any(np.isclose(q, lo, atol=1e-3) | np.isclose(q, hi, atol=1e-3)))
+        prev = q
+    assert at_limit > 100  # the run did push joints to their range ends
+
+
+def test_collisions_avoided_while_pulled_through_the_torso():
+    """Targets pulling each hand through the torso: the minimum distance of the forearm
+    and hand geoms to torso, chest and head (and hand to hand) stays positive; without
+    collision pairs the same run goes through."""
+
+    def run(ik: UpperBodyIK) -> float:
+        worst = math.inf
+        for i in range(300):
+            s = i / 299
+            right = [0.45 - 0.75 * s, -0.35 + 0.55 * s, 1.20]
+            left = [0.45 - 0.75 * s, 0.35 - 0.55 * s, 1.25]
+            ik.step({"right_palm_site": right, "left_palm_site": left, "gaze_site": right}, 0.01)
+            worst = min(worst, _min_distance(ik.model, ik.configuration.data))
+        return worst
+
+    ik = UpperBodyIK()
+    assert _min_distance(ik.model, ik.configuration.data) > 0.05
+    worst = run(ik)
+    assert worst > 0.0
+    assert worst >= 0.5 * ik.options["min_distance"] - 1e-6
+    assert run(UpperBodyIK(collision_pairs=None)) < -0.02
+
+
+# ---------------------------------------------------------------------------- gaze
+def _fd_jacobian(task, cfg: mink.Configuration, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    J = np.empty((3, cfg.nv))
+    for i in range(cfg.nv):
+        qp, qm = q.copy(), q.copy()
+        qp[i] += h
+        qm[i] -= h
+        cfg.update(qp)
+        ep = task.compute_error(cfg)
+        cfg.update(qm)
+        em = task.compute_error(cfg)
+        J[:, i] = (ep - em) / (2 * h)
+    cfg.update(q)
+    return J
+
+
+def test_gaze_jacobian_matches_finite_differences():
+    """GazeTask J = -[f]x J_w + (I - d d') J_v / n equals central differences of e."""
+    chain = Chain(None, "gaze_site")
+    m = chain.model
+    cfg = mink.Configuration(m)
+    rng = np.random.default_rng(5)
+    for axis in [(1.0, 0.0, 0.0), (0.2, -0.5, 1.0)]:
+        task = GazeTask(m, "gaze_site", axis=axis)
+        for _ in range(5):
+            q = m.qpos0.copy()
+            q[chain.qpos_adr] = chain.random_q(rng)
+            cfg.update(q)
+            task.set_target(rng.uniform([0.2, -1, 0.8], [2, 1, 2.5]))
+            J = task.compute_jacobian(cfg)
+            np.testing.assert_allclose(J, _fd_jacobian(task, cfg, q), atol=1e-7)
+
+
+def test_gaze_error_is_the_aim_misalignment():
+    """|e| = 2 sin(theta/2), zero when aiming at the target, 2 when aiming away."""
+    m = Chain().model
+    cfg = mink.Configuration(m)
+    cfg.update_from_keyframe("home")
+    task = GazeTask(m, "gaze_site")
+    p = cfg.data.site_xpos[m.site("gaze_site").id].copy()
+    task.set_target(p + [1.0, 0.0, 0.0])
+    assert np.linalg.norm(task.compute_error(cfg)) < 1e-12
+    task.set_target(p + [-1.0, 0.0, 0.0])
+    assert np.linalg.norm(task.compute_error(cfg)) == pytest.approx(2.0)
+    task.set_target(p + [1.0, 1.0, 0.0])
+    theta, miss = task.angle(cfg)
+    assert theta == pytest.approx(math.pi / 4)
+    assert np.linalg.norm(task.compute_error(cfg)) == pytest.approx(2 * math.sin(math.pi / 8))
+    assert miss == pytest.approx(1.0)  # |(1, 1)| sin 45 deg
+
+
+def test_gaze_gradient_matches_mink_look_at_task():
+    """Same error norm as mink's LookAtTask, so the same QP gradient c = -J' W^2 e."""
+    chain = Chain(None, "gaze_site")
+    m = chain.model
+    cfg = mink.Configuration(m)
+    rng = np.random.default_rng(6)
+    ours = GazeTask(m, "gaze_site", cost=1.0)
+    theirs = mink.LookAtTask("gaze_site", "site", axis=(1.0, 0.0, 0.0), cost=1.0)
+    for _ in range(5):
+        q = m.qpos0.copy()
+        q[chain.qpos_adr] = chain.random_q(rng)
+        cfg.update(q)
+        tgt = rng.uniform([0.2, -1, 0.8], [2, 1, 2.5])
+        ours.set_target(tgt)
+        theirs.set_target(tgt)
+        assert np.linalg.norm(ours.compute_error(cfg)) == pytest.approx(
+            np.linalg.norm(theirs.compute_error(cfg))
+        )
+        np.testing.assert_allclose(
+            ours.compute_qp_objective(cfg).c, theirs.compute_qp_objective(cfg).c, atol=1e-12
+        )
+
+
+@pytest.mark.parametrize("point", [[1.0, 0.3, 1.5], [1.0, -0.5, 1.8], [0.5, 0.0, 1.3]])
+def test_gaze_converges_to_the_target_direction(point):
+    """solve() turns the head until the gaze site's x axis points at the target."""
+    ik = UpperBodyIK()
+    res = ik.solve({"gaze_site": point})
+    assert res.converged and res.iterations < 20
+    checker = Chain(None, "gaze_site")
+    p, R = checker.fk(res.q[checker.qpos_adr])
+    v = np.asarray(point) - p
+    assert math.acos(min(1.0, R[:, 0] @ v / np.linalg.norm(v))) < 1e-3
+
+
+# ---------------------------------------------------------------------------- jointly
+def test_one_qp_step_reduces_both_hands_and_gaze_errors():
+    """One step with both hands and the gaze lowers all three errors and moves all 16."""
+    ik = UpperBodyIK()
+    p, R = Chain().fk([0.7, 0.3, 0.2, 1.3, 0.3, 0.2, 0.1])
+    targets = {
+        "right_palm_site": Target(p, mat_to_quat(R)),
+        "left_palm_site": [0.35, 0.3, 1.15],
+        "gaze_site": [1.0, -0.3, 1.3],
+    }
+    r0 = ik.measure(targets)
+    assert r0.iterations == 0 and np.array_equal(r0.q, ik.q)
+    res = ik.step(targets, 0.05)
+    assert isinstance(res, UpperBodyResult) and res.iterations == 1
+    for name in targets:
+        assert res[name].position_error < r0[name].position_error
+        if name != "left_palm_site":
+            assert res[name].orientation_error < r0[name].orientation_error
+    assert np.all(np.abs(ik.last_dq) > 1e-6)  # every joint took part in the one QP
+    full = ik.solve(targets)
+    assert full.converged, full.message
+
+
+def test_absent_targets_freeze_their_chain():
+    """A step with the right hand only keeps the left arm and the neck exactly."""
+    ik = UpperBodyIK()
+    before = ik.q
+    res = ik.step({"right_palm_site": [0.3, -0.3, 1.1], "left_palm_site": None}, 0.01)
+    moved = np.flatnonzero(res.q != before)
+    assert set(moved) <= set(ik.chains["right_palm_site"].qpos_adr)
+    assert list(res.effectors) == ["right_palm_site"]
+
+
+def test_load_and_apply_touch_only_chain_joints():
+    """load() reads the caller's qpos; apply() writes the chains' joints and runs FK."""
+    ik = UpperBodyIK(hands=("right_palm_site",), gaze=None)
+    m = ik.model
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    d.qpos[0] = 0.4
+    ik.load(d)
+    ik.solve({"right_palm_site": [0.3, -0.3, 1.1]})
+    assert list(ik.chains) == ["right_palm_site"]
+    ik.apply(d)
+    assert d.qpos[0] == 0.4
+    assert np.linalg.norm(d.site("right_palm_site").xpos - [0.3, -0.3, 1.1]) < 1e-4
+
+
+def test_result_is_read_only():
+    """UpperBodyResult: q and the per-effector mapping cannot be changed."""
+    ik = UpperBodyIK()
+    res = ik.step({"gaze_site": [1.0, 0.0, 1.5]}, 0.01)
+    with pytest.raises(ValueError):
+        res.q[0] = 1.0
+    with pytest.raises(TypeError):
+        res.effectors["x"] = res["gaze_site"]  # type: ignore[index]
+
+
+def test_empty_targets_do_nothing():
+    """No targets: no step, nothing moves, a converged empty result."""
+    ik = UpperBodyIK()
+    before = ik.q
+    for res in (ik.step({}, 0.01), ik.solve({"left_palm_site": None})):
+        assert res.iterations == 0 and res.converged and not res.effectors
+    assert np.array_equal(ik.q, before)
+
+
+def test_unreachable_target_stops_with_a_reason():
+    """A target 3 m away: solve stops (stall or max_iterations) with the reason."""
+    ik = UpperBodyIK(max_iterations=30)
+    res = ik.solve({"right_palm_site": [3.0, -3.0, 1.0]})
+    assert not res.converged and res.status == "max_iterations" and res.message
+
+
+# ---------------------------------------------------------------------------- parts
+def test_position_task_jacobian_matches_finite_differences():
+    """PositionTask e = p - p*, J = J_v: central differences of e, site and body."""
+    m = Chain().model
+    cfg = mink.Configuration(m)
+    rng = np.random.default_rng(8)
+    for name, kind in [("right_palm_site", "site"), ("left_hand_link", "body")]:
+        task = PositionTask(m, name, kind)
+        task.set_target([0.3, 0.0, 1.0])
+        q = m.qpos0 + rng.uniform(-0.5, 0.5, m.nq)
+        cfg.update(q)
+        pos = (
+            cfg.data.site_xpos[m.site(name).id]
+            if kind == "site"
+            else cfg.data.xpos[m.body(name).id]
+        )
+        np.testing.assert_allclose(task.compute_error(cfg), pos - [0.3, 0.0, 1.0])
+        np.testing.assert_allclose(
+            task.compute_jacobian(cfg), _fd_jacobian(task, cfg, q), atol=1e-7
+        )
+
+
+def test_range_and_velocity_limit_rows():
+    """Rows gain (q_min - q) <= dq <= gain (q_max - q) and |dq| <= v dt on chosen joints."""
+    m = Chain().model
+    cfg = mink.Configuration(m)
+    q = m.qpos0.copy()
+    j = m.joint("right_elbow_joint")
+    q[j.qposadr[0]] = 1.0
+    cfg.update(q)
+    rng_lim = JointRangeLimit(m, [j.id], gain=0.5)
+    G, h = rng_lim.compute_qp_inequalities(cfg, 0.01)
+    assert G.shape == (2, m.nv) and G[0, j.dofadr[0]] == 1.0 and G[1, j.dofadr[0]] == -1.0
+    np.testing.assert_allclose(h, [0.5 * (2.62 - 1.0), 0.5 * (1.0 - 0.0)])
+    vel = JointVelocityLimit(m, [j.id], max_velocity=2.0)
+    G, h = vel.compute_qp_inequalities(cfg, 0.01)
+    np.testing.assert_allclose(h, [0.02, 0.02])
+    assert JointRangeLimit(m, []).compute_qp_inequalities(cfg, 0.01).inactive
+    assert JointVelocityLimit(m, [], 1.0).compute_qp_inequalities(cfg, 0.01).inactive
+
+
+def test_collision_rows_are_displacement_bounds():
+    """Row -n'(J2 - J1) dq <= gain (d - d_min) whatever dt, and -G dq predicts the
+    change of distance to first order."""
+    ik = UpperBodyIK()
+    m = ik.model
+    q = ik.q_home.copy()
+    q[ik.chains["right_palm_site"].qpos_adr] = [0.3, -0.2, 0.5, 2.0, 0.0, 0.0, 0.0]
+    cfg = mink.Configuration(m, q)
+    lim = CollisionLimit(m, DEFAULT_COLLISION_PAIRS, gain=0.5, collision_detection_distance=0.3)
+    G1, h1 = lim.compute_qp_inequalities(cfg, 0.01)
+    G2, h2 = lim.compute_qp_inequalities(cfg, 1.0)
+    np.testing.assert_array_equal(h1, h2)
+    active = np.flatnonzero(np.isfinite(h1))
+    assert active.size > 0
+    dmin = lim.minimum_distance_from_collisions
+    d0 = lim.last_distances.copy()
+    np.testing.assert_allclose(h1[active], 0.5 * (d0[active] - dmin))
+    dq = np.random.default_rng(9).normal(size=m.nv) * 1e-5
+    cfg.update(q + dq)
+    d1 = lim.distances(cfg.data, np.empty(len(d0)))
+    np.testing.assert_allclose(d1[active] - d0[active], -G1[active] @ dq, atol=1e-8)
+
+
+# ---------------------------------------------------------------------------- errors
+def test_unknown_geom_names_are_named_with_the_valid_ones():
+    """Unknown collision geoms: the error names each and lists the model's geoms."""
+    pairs = [(["right_hand_collision", "palm_geom"], ["torso_collision", "belly"])]
+    with pytest.raises(NameNotFoundError) as err:
+        UpperBodyIK(collision_pairs=pairs)
+    msg = str(err.value)
+    assert "'palm_geom'" in msg and "'belly'" in msg and "torso_collision" in msg
+    with pytest.raises(ChainError, match="two groups"):
+        UpperBodyIK(collision_pairs=[(["right_hand_collision"],)])
+
+
+def test_a_model_with_other_names_works_through_options():
+    """Another model: effectors and collision pairs by its own names."""
+    m = model(SMALL_ARM_XML)
+    ik = UpperBodyIK(m, hands=("tip",), gaze=None, collision_pairs=None)
+    chain = Chain(m, "tip")
+    p, _ = chain.fk(chain.random_q(np.random.default_rng(1)))
+    assert ik.solve({"tip": p}).converged
+    with pytest.raises(NameNotFoundError, match="site 'right_palm_site' not in model"):
+        UpperBodyIK(m)
+
+
+def test_bad_targets_and_steps_are_refused():
+    """Unknown effector, an orientation for the gaze, a bad dt or qpos: clear errors."""
+    ik = UpperBodyIK()
+    with pytest.raises(TargetError, match="effectors: right_palm_site, left_palm_site"):
+        ik.step({"right_hand": [0.3, -0.3, 1.1]}, 0.01)
+    with pytest.raises(TargetError, match="looks at a point"):
+        ik.step({"gaze_site": Target([1.0, 0.0, 1.5], [1.0, 0.0, 0.0, 0.0])}, 0.01)
+    for dt in (0.0, -0.01, math.nan, "fast"):
+        with pytest.raises(SolverError, match="dt must be"):
+            ik.step({"gaze_site": [1.0, 0.0, 1.5]}, dt)  # type: ignore[arg-type]
+    with pytest.raises(TargetError, match="qpos must be"):
+        ik.set_q(np.zeros(3))
+
+
+def test_bad_options_are_refused():
+    """Unknown options, non-numbers, out-of-range gains and missing QP solvers."""
+    with pytest.raises(SolverError, match="unknown"):
+        UpperBodyIK(speed=1.0)
+    with pytest.raises(SolverError, match="must be a number"):
+        UpperBodyIK(max_velocity="fast")
+    with pytest.raises(SolverError, match=r"in \(0, 1\]"):
+        UpperBodyIK(range_gain=1.5)
+    with pytest.raises(SolverError, match="> 0"):
+        UpperBodyIK(max_step=0.0)
+    with pytest.raises(SolverError, match=">= 0"):
+        UpperBodyIK(posture_cost=-1.0)
+    with pytest.raises(SolverError, match="must be a name"):
+        UpperBodyIK(qp_solver=3)
+    with pytest.raises(SolverError, match="QP solvers: .*daqp"):
+        UpperBodyIK(qp_solver="no_such_qp")
+    with pytest.raises(SolverError, match="QP solvers"):
+        MinkSolver(qp_solver="no_such_qp").solve(Chain(), [0.3, -0.3, 1.1])
+
+
+def test_bad_chains_are_refused():
+    """Chains on another model, an effector given twice, a body as gaze."""
+    with pytest.raises(ChainError, match="another MjModel"):
+        UpperBodyIK(Chain().model, hands=(Chain(),))
+    with pytest.raises(ChainError, match="given twice"):
+        UpperBodyIK(hands=("right_palm_site", "right_palm_site"))
+    m = Chain().model
+    with pytest.raises(ChainError, match="gaze effector must be a site"):
+        UpperBodyIK(m, gaze=Chain(m, body="head_link"))
+
+
+def test_task_parts_refuse_bad_input():
+    """Zero gaze axis, bad targets, and a task used before its target is set."""
+    m = Chain().model
+    cfg = mink.Configuration(m)
+    with pytest.raises(TargetError, match="non-zero"):
+        GazeTask(m, "gaze_site", axis=(0.0, 0.0, 0.0))
+    gaze = GazeTask(m, "gaze_site")
+    pos = PositionTask(m, "right_palm_site")
+    for task in (gaze, pos):
+        with pytest.raises(mink.TargetNotSet):
+            task.compute_error(cfg)
+        with pytest.raises(TargetError, match="3 finite numbers"):
+            task.set_target([1.0, math.inf, 0.0])
+    with pytest.raises(mink.TargetNotSet):
+        gaze.angle(cfg)
