@@ -135,10 +135,14 @@ class Chain:
         self.data = mujoco.MjData(m)
         self.q_home = self._home()
         self.reset()
-        nv = m.nv
-        self._jacp = np.zeros((3, nv))
-        self._jacr = np.zeros((3, nv))
-        self._J = np.zeros((6, self.n))
+        # (6, nv) Jacobian buffer; rows 0-2 and 3-5 are C-contiguous views for mj_jacSite
+        self._jac = np.zeros((6, m.nv))
+        self._jacp, self._jacr = self._jac[:3], self._jac[3:]
+        dofs = self.dof_adr
+        contiguous = bool(np.all(np.diff(dofs) == 1))
+        # chain columns: a view of the buffer when the dofs are contiguous, else a copy
+        self._dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
+        self._J = self._jac[:, self._dof_slice] if contiguous else np.zeros((6, self.n))
         self._quat_buf = np.zeros((2, 4))
 
     # ----------------------------------------------------------------- structure
@@ -279,8 +283,8 @@ class Chain:
             mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.ee_id)
         else:
             mujoco.mj_jacBody(m, d, self._jacp, self._jacr, self.ee_id)
-        np.take(self._jacp, self.dof_adr, axis=1, out=self._J[:3])
-        np.take(self._jacr, self.dof_adr, axis=1, out=self._J[3:])
+        if self._dof_slice is None:
+            np.take(self._jac, self.dof_adr, axis=1, out=self._J)
         return self._J
 
     def joint_axes(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

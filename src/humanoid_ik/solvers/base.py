@@ -107,8 +107,10 @@ class Solver(ABC):
             return value
         return value
 
-    def starts(self, chain: Chain, q0: NDArray[np.float64]):
-        """``q0``, then ``restarts`` seeded random in-range poses (``seed`` option)."""
+    def starts(self, chain: Chain, q0: NDArray[np.float64], target: Target | None = None):
+        """``q0``, then ``restarts`` seeded random in-range poses (``seed`` option).
+
+        Solvers with a better restart rule use ``target`` (see the Jacobian family)."""
         yield q0.copy()
         rng = np.random.default_rng(self.options.get("seed", 0))
         for _ in range(int(self.options.get("restarts", 0))):

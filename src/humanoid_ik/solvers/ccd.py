@@ -51,7 +51,7 @@ class CCD(Solver):
     def _solve(self, chain: Chain, target: Target, q0: np.ndarray) -> IKResult:
         best_q, best_err = q0.copy(), math.inf
         sweeps = 0
-        for q in self.starts(chain, q0):
+        for q in self.starts(chain, q0, target):
             done, err, n = self._run(chain, target.position, q)
             sweeps += n
             if err < best_err:
