@@ -116,6 +116,14 @@ class Solver(ABC):
         for _ in range(int(self.options.get("restarts", 0))):
             yield chain.random_q(rng)
 
+    def gave_up(self) -> str:
+        """The message of a result that did not converge from any start."""
+        starts = int(self.options.get("restarts", 0)) + 1
+        return (
+            f"no start of {starts} converged; the closest pose is returned "
+            "(the target may be out of reach within the joint ranges)"
+        )
+
     def applicable(self, chain: Chain, pose: bool = False) -> str | None:
         """``None`` when the solver can solve this chain and task, else the reason it cannot."""
         if pose and not self.supports_orientation:

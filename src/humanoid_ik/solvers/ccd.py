@@ -58,7 +58,15 @@ class CCD(Solver):
                 best_q, best_err = q.copy(), err
             if done:
                 break
-        return self._result(chain, target, best_q, sweeps)
+        if best_err < self.tol:
+            return self._result(chain, target, best_q, sweeps)
+        return self._result(
+            chain,
+            target,
+            best_q,
+            sweeps,
+            message=self.gave_up(),
+        )
 
     def _run(self, chain: Chain, pd: np.ndarray, q: np.ndarray) -> tuple[bool, float, int]:
         """Sweeps from ``q`` (updated in place): ``(converged, error [m], sweeps)``."""

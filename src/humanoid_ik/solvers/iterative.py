@@ -144,4 +144,10 @@ class JacobianSolver(Solver):
                 q += dq
                 np.clip(q, lo, hi, out=q)
                 d.qpos[qadr] = q
-        return self._result(chain, target, best_q, iterations)
+        return self._result(
+            chain,
+            target,
+            best_q,
+            iterations,
+            message=self.gave_up(),
+        )
