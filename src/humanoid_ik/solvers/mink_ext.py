@@ -7,6 +7,7 @@ This module imports mink (and through it qpsolvers and SciPy, about 0.2 s), so
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import mink
@@ -119,9 +120,10 @@ class GazeTask(mink.Task):
     where ``theta`` is the angle between the axis and the direction to the target and
     ``J_v``, ``J_w`` are the world-frame linear and angular Jacobians of the site
     (``mj_jacSite``). ``df = w x f`` gives the first term; ``dd = (I - d d') dr / n``
-    with ``dr = -J_v dq`` the second. The error is a world-frame rotation of mink's
-    ``LookAtTask`` error ``a - R' d``, so with a scalar cost both give the same QP
-    objective; this task reads the site Jacobian once and builds no Lie-group objects.
+    with ``dr = -J_v dq`` the second. The error is mink's ``LookAtTask`` error
+    ``a - R' d`` rotated into the world frame: the same norm, hence the same gradient
+    ``J' e`` of the QP objective (the Gauss-Newton Hessians differ away from alignment);
+    this task reads the site Jacobian once and builds no Lie-group objects.
     ``e`` vanishes only when the axis points at the target (not when it points away,
     unlike ``f x d``), and has rank two: roll about the gaze line is left free.
 
@@ -158,14 +160,10 @@ class GazeTask(mink.Task):
             raise TargetError(f"gaze axis {a.tolist()} must be a non-zero 3-vector")
         self.axis = a / na
         self.target: NDArray[np.float64] | None = None
-        self._jacp = np.zeros((3, model.nv))  # (3, nv)
-        self._jacr = np.zeros((3, model.nv))  # (3, nv)
-        self._f = np.empty(3)
-        self._d = np.empty(3)
+        self._jac = np.zeros((6, model.nv))  # (6, nv): J_v over J_w
+        self._M = np.empty((3, 6))  # [(I - d d') / n, -[f]x]
         self._e = np.empty(3)
         self._J = np.empty((3, model.nv))  # (3, nv)
-        self._P = np.empty((3, 3))
-        self._n = 1.0
 
     def set_target(self, point: ArrayLike) -> None:
         """Look at ``point`` ``(3,)`` [m] in the world frame.
@@ -179,29 +177,33 @@ class GazeTask(mink.Task):
         self.target = p.copy()
 
     def _update(self, configuration: mink.Configuration) -> None:
-        """Fill ``_f``, ``_d``, ``_n``, ``_e`` and ``_J`` at the configuration's kinematics."""
+        """Fill ``_e`` and ``_J`` at the configuration's kinematics (scalar arithmetic for
+        the 3-vectors, one ``(3, 6) @ (6, nv)`` product for the Jacobian)."""
         if self.target is None:
             raise mink.TargetNotSet(self.__class__.__name__)
         m, d = configuration.model, configuration.data
         sid = self.site_id
-        R = d.site_xmat[sid].reshape(3, 3)
-        f = np.dot(R, self.axis, out=self._f)
-        r = np.subtract(self.target, d.site_xpos[sid], out=self._d)
-        n = max(float(np.sqrt(r @ r)), 1e-12)
-        r /= n  # now d
-        self._n = n
-        np.subtract(f, r, out=self._e)
-        mujoco.mj_jacSite(m, d, self._jacp, self._jacr, sid)
-        # -[f]x J_w: column i is w_i x f, with w_i column i of J_w
-        jw, J = self._jacr, self._J
-        J[0] = jw[1] * f[2] - jw[2] * f[1]
-        J[1] = jw[2] * f[0] - jw[0] * f[2]
-        J[2] = jw[0] * f[1] - jw[1] * f[0]
-        P = self._P
-        np.outer(r, r, out=P)
-        np.subtract(np.eye(3), P, out=P)
-        P /= n
-        J += P @ self._jacp
+        R = d.site_xmat[sid]
+        a0, a1, a2 = self.axis
+        f0 = R[0] * a0 + R[1] * a1 + R[2] * a2
+        f1 = R[3] * a0 + R[4] * a1 + R[5] * a2
+        f2 = R[6] * a0 + R[7] * a1 + R[8] * a2
+        p, t = d.site_xpos[sid], self.target
+        r0, r1, r2 = t[0] - p[0], t[1] - p[1], t[2] - p[2]
+        n = max(math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), 1e-12)
+        d0, d1, d2 = r0 / n, r1 / n, r2 / n
+        e = self._e
+        e[0], e[1], e[2] = f0 - d0, f1 - d1, f2 - d2
+        M = self._M
+        M[:, :3] = (
+            ((1.0 - d0 * d0) / n, -d0 * d1 / n, -d0 * d2 / n),
+            (-d1 * d0 / n, (1.0 - d1 * d1) / n, -d1 * d2 / n),
+            (-d2 * d0 / n, -d2 * d1 / n, (1.0 - d2 * d2) / n),
+        )
+        M[:, 3:] = ((0.0, f2, -f1), (-f2, 0.0, f0), (f1, -f0, 0.0))  # -[f]x
+        jac = self._jac
+        mujoco.mj_jacSite(m, d, jac[:3], jac[3:], sid)
+        np.matmul(M, jac, out=self._J)
 
     def compute_error(self, configuration: mink.Configuration) -> NDArray[np.float64]:
         """``e = f - d`` ``(3,)`` (a copy)."""
@@ -231,13 +233,19 @@ class GazeTask(mink.Task):
             raise mink.TargetNotSet(self.__class__.__name__)
         d = configuration.data
         sid = self.site_id
-        f = d.site_xmat[sid].reshape(3, 3) @ self.axis
-        v = self.target - d.site_xpos[sid]
-        dist = float(np.linalg.norm(v))
+        R = d.site_xmat[sid]
+        a0, a1, a2 = self.axis
+        f0 = R[0] * a0 + R[1] * a1 + R[2] * a2
+        f1 = R[3] * a0 + R[4] * a1 + R[5] * a2
+        f2 = R[6] * a0 + R[7] * a1 + R[8] * a2
+        p, t = d.site_xpos[sid], self.target
+        v0, v1, v2 = t[0] - p[0], t[1] - p[1], t[2] - p[2]
+        dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
         if dist < 1e-12:
             return 0.0, 0.0
-        theta = float(np.arctan2(np.linalg.norm(np.cross(f, v)), f @ v))
-        return theta, dist * float(np.sin(theta)) if theta < np.pi / 2 else dist
+        c0, c1, c2 = f1 * v2 - f2 * v1, f2 * v0 - f0 * v2, f0 * v1 - f1 * v0
+        theta = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), f0 * v0 + f1 * v1 + f2 * v2)
+        return theta, dist * math.sin(theta) if theta < math.pi / 2 else dist
 
 
 class JointRangeLimit(mink.Limit):
