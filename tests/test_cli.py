@@ -178,3 +178,28 @@ def test_module_and_console_script_share_main():
         timeout=60,
     )
     assert proc.returncode == 0 and proc.stdout.startswith("humanoid-ik ")
+
+
+def test_option_values_are_typed(capsys):
+    """--option values parse as numbers, booleans and lists: look_at takes up=0,0,1."""
+    code, out, _ = _run(
+        capsys,
+        "solve",
+        "--target",
+        "0.6,-0.2,1.6",
+        "--site",
+        "gaze_site",
+        "--solver",
+        "look_at",
+        "--option",
+        "up=0,0,1",
+        "--option",
+        "rot_tol=1e-8",
+        "--json",
+    )
+    doc = json.loads(out)
+    assert code == 0 and doc["orientation_error_rad"] < 1e-8
+    code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--option", "restarts=true")
+    assert code == 2 and "'restarts' of solver 'dls' must be a number, got True" in err
+    code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--joints", ",")
+    assert code == 2 and "empty name list ','" in err

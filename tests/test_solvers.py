@@ -265,3 +265,66 @@ def test_targets_are_checked():
         Target([0, 0, 0], [1, 0, 0])
     t = Target([0, 0, 0], [0.7071, 0, 0, 0.7071])
     assert np.linalg.norm(t.quat) == pytest.approx(1.0, abs=1e-15)
+
+
+TIGHT_XML = """
+<mujoco><compiler angle="radian" autolimits="true"/><worldbody><body>
+  <joint name="s1" axis="0 1 0" range="-0.3 0.3"/><joint name="s2" axis="0 0 1" range="-0.3 0.3"/>
+  <joint name="s3" axis="1 0 0" range="-0.3 0.3"/>
+  <geom type="capsule" fromto="0 0 0 1 0 0" size=".05"/>
+  <body pos="1 0 0"><joint name="el" axis="0 0 1" range="-2 2"/>
+    <geom type="capsule" fromto="0 0 0 1 0 0" size=".05"/><site name="tip" pos="1 0 0"/></body>
+</body></worldbody></mujoco>
+"""
+
+SKEW_XML = """
+<mujoco><compiler angle="radian"/><worldbody><body>
+  <joint name="s1" axis="0 1 0"/><joint name="s2" axis="0 0 1" pos="0.2 0 0"/>
+  <joint name="s3" axis="1 0 0"/><geom type="capsule" fromto="0 0 0 1 0 0" size=".05"/>
+  <body pos="1 0 0"><joint name="el" axis="1 0 0"/>
+    <geom type="capsule" fromto="0 0 0 1 0 0" size=".05"/><site name="tip" pos="1 0 0"/></body>
+</body></worldbody></mujoco>
+"""
+
+
+def test_two_link_out_of_joint_ranges():
+    """A target inside the shell but behind tight shoulder ranges: unreachable, in range."""
+    chain = Chain(model(TIGHT_XML), "tip")
+    res = make_solver("two_link").solve(chain, [-1.5, 0.0, 0.0])
+    assert res.status == "unreachable" and "inside the joint ranges" in res.message
+    assert chain.within_limits(res.q) and np.all(np.isfinite(res.q))
+
+
+def test_two_link_structure_reasons():
+    """Shoulder axes that do not meet, and an elbow on the arm's line, are named."""
+    skew = Chain(model(SKEW_XML), "tip")
+    assert "meet at one point" in make_solver("two_link").applicable(skew)
+    aligned = Chain(model(SKEW_XML.replace('pos="0.2 0 0"', "")), "tip")
+    assert "does not pass through the shoulder" in make_solver("two_link").applicable(aligned)
+    with pytest.raises(SolverError, match="meet at one point"):
+        make_solver("two_link").solve(skew, [1.0, 1.0, 0.0])
+
+
+def test_look_at_refuses_orientation_targets():
+    """look_at aims an axis: a pose target is refused with the reason."""
+    chain = Chain(None, "gaze_site")
+    with pytest.raises(SolverError, match="look_at aims an axis at a point"):
+        make_solver("look_at").solve(chain, Target([1, 0, 1.6], [1, 0, 0, 0]))
+
+
+def test_bad_up_and_quaternion_values():
+    """A zero up vector and a NaN quaternion are refused with the value."""
+    from humanoid_ik import look_at
+
+    with pytest.raises(TargetError, match="up vector \\[0.0, 0.0, 0.0\\] has zero length"):
+        look_at([0, 0, 0], [1, 0, 0], up=[0, 0, 0])
+    with pytest.raises(TargetError, match="quaternion .* is not finite"):
+        Target([0, 0, 0], [1, 0, math.inf, 0])
+
+
+def test_result_status_is_checked():
+    """IKResult refuses a status outside converged / max_iterations / unreachable."""
+    from humanoid_ik import IKResult
+
+    with pytest.raises(ValueError, match="status 'done' unknown; statuses: converged"):
+        IKResult(np.zeros(2), True, 1, 0.0, None, "done")
