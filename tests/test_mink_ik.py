@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+from typing import NamedTuple
 
 import mink
 import mujoco
@@ -42,6 +43,16 @@ from humanoid_ik.solvers.mink_ik import (
 )
 
 from .chains import SMALL_ARM_XML, model
+
+
+class Goal(NamedTuple):
+    """The scene runner's multi-effector goal (chain, target, warm start, task)."""
+
+    chain: Chain
+    target: Target
+    q0: np.ndarray
+    task: str
+
 
 ARM_GEOMS = [
     "right_forearm_collision",
@@ -409,6 +420,39 @@ def test_unreachable_target_stops_with_a_reason():
     ik = UpperBodyIK(max_iterations=30)
     res = ik.solve({"right_palm_site": [3.0, -3.0, 1.0]})
     assert not res.converged and res.status == "max_iterations" and res.message
+
+
+def _goals(tasks=("reach", "reach", "look_at")) -> list[Goal]:
+    m = Chain().model
+    sites = ["right_palm_site", "left_palm_site", "gaze_site"]
+    chains = [Chain(m, s) for s in sites]
+    targets = [Target([0.35, -0.25, 1.1]), Target([0.35, 0.25, 1.15]), Target([1.0, -0.2, 1.4])]
+    return [Goal(c, t, c.q_home, k) for c, t, k in zip(chains, targets, tasks, strict=True)]
+
+
+def test_solve_effectors_moves_hands_and_gaze_together():
+    """The runner hook: dt = 0 converges all three; dt > 0 is one rate-limited step."""
+    goals = _goals()
+    out = MinkSolver(collisions=True).solve_effectors(goals)
+    assert [r.converged for r in out] == [True, True, True]
+    for g, r in zip(goals, out, strict=True):
+        assert g.chain.within_limits(r.q, tol=0.0)
+    p, _ = goals[0].chain.fk(out[0].q)
+    assert np.linalg.norm(p - goals[0].target.position) < 1e-4
+    solver = MinkSolver(dt=0.01, max_velocity=2.0)
+    out = solver.solve_effectors(goals)
+    assert all(r.iterations == 1 for r in out)
+    for g, r in zip(goals, out, strict=True):
+        assert np.all(np.abs(r.q - g.q0) <= 0.02 + 1e-12)
+    assert solver.solve_effectors([]) == []
+
+
+def test_solve_effectors_refuses_bad_goals():
+    """Two look_at effectors or an unknown task: a SolverError naming them."""
+    with pytest.raises(SolverError, match="one look_at effector"):
+        MinkSolver().solve_effectors(_goals(("reach", "look_at", "look_at")))
+    with pytest.raises(SolverError, match="task 'wave' .* tasks: look_at, reach"):
+        MinkSolver().solve_effectors(_goals(("reach", "wave", "look_at")))
 
 
 # ---------------------------------------------------------------------------- parts

@@ -19,11 +19,14 @@ moved inside their ranges before a step, frozen joints have no range row, collis
 bounds are >= 0), so the QP is never infeasible, even when a frozen joint sits outside
 its range. Both hands and the gaze are solved jointly in one QP per step.
 
-Two entry points:
+Entry points:
 
 - :class:`MinkSolver` (``"mink"``): the :class:`~humanoid_ik.solvers.base.Solver` on one
   :class:`~humanoid_ik.chain.Chain`, iterating QP steps to convergence; usable by name
-  in ``solve``, ``bench`` and the CLI.
+  in ``solve``, ``bench`` and the CLI. Its ``solve_effectors(goals)`` is the scene
+  runner's multi-effector hook: every effector of a scene whose solver is ``mink``
+  (``reach`` hands and one ``look_at`` gaze) is solved in one QP per step; with the
+  option ``dt`` (the frame time [s]) each frame is one velocity-limited step.
 - :class:`UpperBodyIK`: both hands and the gaze of the upper body; owns a
   ``mink.Configuration``. Per frame of a scene::
 
@@ -81,6 +84,7 @@ DEFAULT_COLLISION_PAIRS: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
 )
 """Each forearm and hand against torso, chest and head, and hand against hand."""
 _HALVINGS = 6
+_TASKS = ("reach", "look_at")
 
 
 @dataclass(frozen=True)
@@ -581,6 +585,7 @@ class UpperBodyIK:
                 orientation_error=er,
                 status="converged" if ok else "max_iterations",
                 solver=MinkSolver.name,
+                message="" if ok else message,
             )
         ok = all(r.converged for r in per.values())
         if status is None:
@@ -671,16 +676,25 @@ class UpperBodyIK:
 
 
 class MinkSolver(Solver):
-    """Differential IK as a QP through mink on one chain.
+    """Differential IK as a QP through mink on one chain, or on several at once.
 
-    A frame task on the chain's end effector (position, or pose with
-    ``orientation_cost``), a posture task toward ``home`` and joint range limits; the
-    model's joints outside the chain are frozen by an equality constraint and keep
-    their values exactly. Iterates QP steps (each joint moving at most ``max_step``
-    [rad] per step) until within ``tol`` / ``rot_tol``, restarting from seeded random
-    in-range poses after a stall (``restarts``). With ``collisions`` the chain also
-    avoids the bundled humanoid's collision pairs (:data:`DEFAULT_COLLISION_PAIRS`); use
-    :class:`UpperBodyIK` for other geom names, both hands or the gaze.
+    On one chain (:meth:`solve`): a frame task on the chain's end effector (position,
+    or pose with ``orientation_cost``), a posture task toward ``home`` and joint range
+    limits; the model's joints outside the chain are frozen by an equality constraint
+    and keep their values exactly. Iterates QP steps (each joint moving at most
+    ``max_step`` [rad] per step) until within ``tol`` / ``rot_tol``, restarting from
+    seeded random in-range poses after a stall (``restarts``).
+
+    On several chains (:meth:`solve_effectors`, the scene runner's hook): every
+    ``reach`` effector gets a hand task and one ``look_at`` effector the gaze task, all
+    in one QP per step. With ``dt`` > 0 each call is one tracking step of ``dt`` [s]
+    under the joint velocity limit ``max_velocity`` (set ``dt`` to the scene's frame
+    time); with ``dt = 0`` each call iterates to convergence.
+
+    With ``collisions`` the chains also keep the bundled humanoid's collision pairs
+    apart (:data:`DEFAULT_COLLISION_PAIRS`); use :class:`UpperBodyIK` directly for other
+    geom names. Off by default so that the bench's random targets (some of which put
+    the hand inside the torso) stay comparable with the other solvers.
     """
 
     name: ClassVar[str] = "mink"
@@ -698,6 +712,8 @@ class MinkSolver(Solver):
         "damping": 1e-12,
         "lm_damping": 0.0,
         "collisions": False,
+        "dt": 0.0,
+        "max_velocity": 4.0,
         "qp_solver": "daqp",
     }
     _forwarded: ClassVar[tuple[str, ...]] = (
@@ -711,12 +727,14 @@ class MinkSolver(Solver):
         "orientation_cost",
         "damping",
         "lm_damping",
+        "max_velocity",
         "qp_solver",
     )
 
     def __init__(self, **options: Any):
         super().__init__(**options)
         self._cache: tuple[Chain, UpperBodyIK] | None = None
+        self._multi_cache: tuple[tuple[tuple[Chain, bool], ...], UpperBodyIK] | None = None
 
     def upper_body(self, chain: Chain) -> UpperBodyIK:
         """The :class:`UpperBodyIK` this solver runs on ``chain`` (built once per chain).
@@ -754,3 +772,67 @@ class MinkSolver(Solver):
             if cost < best_cost:
                 best_cost, best_q, message = cost, r.q.copy(), res.message
         return self._result(chain, target, best_q, iterations, message=message)
+
+    def _multi(self, goals: Sequence[Any]) -> UpperBodyIK:
+        """The :class:`UpperBodyIK` for these goals' chains and tasks (built once)."""
+        key = tuple((g.chain, g.task == "look_at") for g in goals)
+        cached = self._multi_cache
+        if (
+            cached is not None
+            and len(cached[0]) == len(key)
+            and all(a is b and la == lb for (a, la), (b, lb) in zip(cached[0], key, strict=True))
+        ):
+            return cached[1]
+        for g in goals:
+            if g.task not in _TASKS:
+                raise SolverError(
+                    f"task '{g.task}' of '{g.chain.ee_name}' unknown; tasks: {choices(_TASKS)}"
+                )
+        looks = [c for c, look in key if look]
+        if len(looks) > 1:
+            raise SolverError(
+                "mink aims one look_at effector per call, got "
+                f"{len(looks)}: {', '.join(c.ee_name for c in looks)}"
+            )
+        opts = {k: self.options[k] for k in self._forwarded}
+        ik = UpperBodyIK(
+            key[0][0].model,
+            hands=[c for c, look in key if not look],
+            gaze=looks[0] if looks else None,
+            collision_pairs=DEFAULT_COLLISION_PAIRS if self.collisions else None,
+            **opts,
+        )
+        self._multi_cache = (key, ik)
+        return ik
+
+    def solve_effectors(self, goals: Sequence[Any]) -> list[IKResult]:
+        """Solve several effectors jointly: the scene runner's multi-effector hook.
+
+        Args:
+            goals: items with ``chain`` (all on one model; their scratch ``qpos`` holds
+                the scene's current joints), ``target`` (a :class:`Target`; for
+                ``look_at`` its position is the point to look at), ``q0`` (the chain's
+                warm start ``(n,)`` [rad]) and ``task`` (``reach`` or ``look_at``).
+
+        Returns:
+            One ``IKResult`` per goal, in order (``q`` in the chain's joint order). Joints
+            outside the goals' chains are frozen.
+
+        Raises:
+            SolverError: an unknown task, more than one ``look_at``, a bad option.
+            ChainError: chains on different models.
+            TargetError: a bad warm start or target.
+        """
+        if not goals:
+            return []
+        ik = self._multi(goals)
+        qpos = goals[0].chain.data.qpos.copy()
+        targets: dict[str, Any] = {}
+        for g in goals:
+            chain = g.chain
+            qpos[chain.qpos_adr] = chain.clip(chain.check_q(g.q0))
+            tgt = Target.of(g.target)
+            targets[chain.ee_name] = tgt.position if g.task == "look_at" else tgt
+        ik.set_q(qpos)
+        res = ik.step(targets, self.dt) if self.dt > 0 else ik.solve(targets)
+        return [res[g.chain.ee_name] for g in goals]
