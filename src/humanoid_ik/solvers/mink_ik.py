@@ -52,7 +52,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, ClassVar
 
@@ -99,7 +99,8 @@ class UpperBodyResult:
 
     Attributes:
         q: full ``qpos`` ``(nq,)`` [rad] after the call.
-        effectors: ``IKResult`` per effector name with a target, in the order given.
+        effectors: ``IKResult`` per effector name with a target (hands in the order
+            configured, then the gaze).
         converged: every effector within ``tol`` / ``rot_tol``.
         iterations: QP steps taken (1 for ``step``).
         status: ``converged`` or ``max_iterations`` (also after a stall; see ``message``).
@@ -129,13 +130,13 @@ class _Problem:
 
     key: tuple[tuple[str, bool], ...]
     tasks: list[Any]
-    limits_step: list[Any]
+    limits: list[Any]
     constraints: list[Any] | None
     qpos_adr: NDArray[np.int64]
     dof_adr: NDArray[np.int64]
     lower: NDArray[np.float64]
     upper: NDArray[np.float64]
-    frozen_dof: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    frozen_dof: NDArray[np.int64]
 
 
 def _import_mink():
@@ -166,6 +167,9 @@ class UpperBodyIK:
 
             - ``position_cost`` [1/m], ``orientation_cost`` [1/rad], ``gaze_cost``,
               ``posture_cost`` [1/rad]: task weights.
+            - ``posture_gain``: fraction of the way back to ``home`` the posture task asks
+              for per step (below 1 so its pull in the null space of the hand tasks does
+              not overshoot and oscillate).
             - ``damping``: Levenberg-Marquardt damping on ``dq`` (all tasks);
               ``lm_damping``: error-scaled damping of the hand tasks (mink).
             - ``max_velocity`` [rad/s]: joint velocity limit of :meth:`step`.
@@ -292,8 +296,7 @@ class UpperBodyIK:
                 minimum_distance_from_collisions=o["min_distance"],
                 collision_detection_distance=o["detection_distance"],
             )
-        self._problems: dict[tuple[str, ...], _Problem] = {}
-        self._quat = np.empty(4)
+        self._problems: dict[tuple[tuple[str, bool], ...], _Problem] = {}
         self._wxyz_xyz = np.empty(7)
         self._err_quat = np.empty((2, 4))
         self._dq = np.zeros(m.nv)
@@ -396,7 +399,7 @@ class UpperBodyIK:
         prob = _Problem(
             key=key,
             tasks=tasks,
-            limits_step=limits,
+            limits=limits,
             constraints=constraints,
             qpos_adr=m.jnt_qposadr[jids].astype(np.int64),
             dof_adr=dof,
@@ -528,7 +531,7 @@ class UpperBodyIK:
             prob.tasks,
             dt,
             self.options["damping"],
-            prob.limits_step,
+            prob.limits,
             prob.constraints,
         )
         sol = self._qpsolvers.solve_problem(problem, solver=self.options["qp_solver"])
