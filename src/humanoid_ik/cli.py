@@ -233,7 +233,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-_EXTRA_COMMANDS: list = []
+def _scene_commands(subparsers) -> None:
+    from humanoid_ik.scene_cli import register
+
+    register(subparsers)
+
+
+_EXTRA_COMMANDS: list = [_scene_commands]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
