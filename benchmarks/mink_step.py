@@ -25,14 +25,15 @@ from humanoid_ik.types import Target
 
 
 def targets_at(t: float) -> dict[str, object]:
-    """Hand and gaze targets at time ``t`` [s]: loops of 0.10-0.15 m at 0.5 Hz."""
+    """Hand and gaze targets at time ``t`` [s]: loops of 0.10-0.15 m at 0.5 Hz, the gaze
+    on a point 1.2 m ahead that follows the hands sideways."""
     w = 2.0 * math.pi * 0.5
     right = np.array([0.40 + 0.05 * math.sin(w * t), -0.25 + 0.15 * math.cos(w * t), 1.15])
     left = np.array([0.40 + 0.05 * math.cos(w * t), 0.25 + 0.10 * math.sin(w * t), 1.20])
     R = axis_angle_matrix((0.0, 1.0, 0.0), -math.pi / 2) @ axis_angle_matrix(
         (1.0, 0.0, 0.0), 0.3 * math.sin(w * t)
     )
-    gaze = 0.5 * (right + left) + np.array([0.0, 0.0, 0.1])
+    gaze = np.array([1.2, right[1] + left[1], 1.35 + 0.1 * math.sin(w * t)])
     return {
         "right_palm_site": Target(right, mat_to_quat(R)),
         "left_palm_site": left,
