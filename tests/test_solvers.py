@@ -261,6 +261,8 @@ def test_targets_are_checked():
         Target([0, 0, 0], [0, 0, 0, 0])
     with pytest.raises(TargetError, match="norm 2; expected a unit quaternion"):
         Target([0, 0, 0], [2, 0, 0, 0])
+    with pytest.raises(TargetError, match="beyond 1e\\+06 m"):
+        Target([0, 1e300, 0])
     with pytest.raises(TargetError, match="4 values"):
         Target([0, 0, 0], [1, 0, 0])
     t = Target([0, 0, 0], [0.7071, 0, 0, 0.7071])

@@ -14,6 +14,7 @@ from humanoid_ik.rotations import normalize_quat, quat_to_mat
 __all__ = ["Target", "IKResult", "STATUSES"]
 
 STATUSES = ("converged", "max_iterations", "unreachable")
+MAX_COORDINATE = 1e6  # [m]: farther targets are input mistakes (and overflow squares)
 
 
 @dataclass(frozen=True)
@@ -21,7 +22,8 @@ class Target:
     """A position target ``(3,)`` in [m], optionally with a wxyz orientation ``(4,)``.
 
     Raises:
-        TargetError: wrong shape, NaN/inf, or a zero / non-unit quaternion.
+        TargetError: wrong shape, NaN/inf, a coordinate beyond 1e6 m, or a zero /
+            non-unit quaternion.
     """
 
     position: NDArray[np.float64]
@@ -34,6 +36,11 @@ class Target:
             raise TargetError(f"target position must have 3 values (x, y, z), got shape {p.shape}")
         if not np.all(np.isfinite(p)):
             raise TargetError(f"target position {p.tolist()} is not finite")
+        if np.any(np.abs(p) > MAX_COORDINATE):
+            raise TargetError(
+                f"target position {p.tolist()} lies beyond {MAX_COORDINATE:g} m; "
+                "expected coordinates in metres"
+            )
         p.setflags(write=False)
         object.__setattr__(self, "position", p)
         if self.quat is None:

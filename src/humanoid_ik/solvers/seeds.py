@@ -33,7 +33,7 @@ class SeedLibrary:
         seed: generator seed.
     """
 
-    def __init__(self, chain: Chain, size: int = 1000, seed: int = 7):
+    def __init__(self, chain: Chain, size: int = 4000, seed: int = 7):
         rng = np.random.default_rng(seed)
         saved = chain.q
         self.q = np.array([chain.random_q(rng) for _ in range(size)])  # (size, n)
@@ -57,7 +57,7 @@ class SeedLibrary:
         return self.q[idx[np.argsort(cost[idx])]]
 
 
-def seed_library(chain: Chain, size: int = 1000, seed: int = 7) -> SeedLibrary:
+def seed_library(chain: Chain, size: int = 4000, seed: int = 7) -> SeedLibrary:
     """The chain's library of ``size`` poses, built on first use and kept with the chain."""
     per_chain = _CACHE.setdefault(chain, {})
     key = (size, seed)
