@@ -170,3 +170,19 @@ def test_property_bad_targets_end_in_package_errors(values):
 
 
 _ARM = Chain()
+
+
+def test_long_tracking_run_stays_bounded():
+    """3000 warm-started steps of a target that leaves reach and returns: no NaN, inside
+    the ranges, reachable targets within 1 mm, Python heap flat after warm-up."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "long_run.py"
+    spec = importlib.util.spec_from_file_location("long_run", path)
+    long_run = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(long_run)
+    r = long_run.run(3000, "dls", heap=True)
+    assert r["nan"] == 0 and r["limit_violations"] == 0
+    assert r["worst_reachable_error_m"] < 1e-3
+    assert r["heap_kib_end"] - r["heap_kib_after_1000"] < 64.0
