@@ -30,10 +30,9 @@ class PositionTask(mink.Task):
         J(q) = J_v             # (3, nv), mj_jacSite / mj_jacBody
 
     A position-only ``mink.FrameTask`` measures its error with the SE(3) logarithm,
-    whose translation part depends on the frame's rotation relative to the target's;
-    with the orientation cost at zero that coupling still steers the wrist (and, with
-    the target's rotation re-set to the current one each step, makes a blocked hand
-    chatter). This task is the plain Cartesian error.
+    whose translation part depends on the frame's rotation relative to the target's,
+    so even with the orientation cost at zero the wrist takes part in reducing it. This
+    task is the plain Cartesian error: only the site's position counts.
 
     Args:
         model: the MuJoCo model.
