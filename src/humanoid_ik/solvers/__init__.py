@@ -7,6 +7,7 @@ from typing import Any
 from humanoid_ik.errors import SolverError, choices
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.ccd import CCD
+from humanoid_ik.solvers.closed_form import ClosedForm
 from humanoid_ik.solvers.dls import DLS
 from humanoid_ik.solvers.jacobian_transpose import JacobianTranspose
 from humanoid_ik.solvers.look_at import LookAt
@@ -23,13 +24,14 @@ __all__ = [
     "PseudoInverse",
     "DLS",
     "LookAt",
+    "ClosedForm",
     "MinkSolver",
     "make_solver",
 ]
 
 SOLVERS: dict[str, type[Solver]] = {
     cls.name: cls
-    for cls in (TwoLink, CCD, JacobianTranspose, PseudoInverse, DLS, LookAt, MinkSolver)
+    for cls in (TwoLink, CCD, JacobianTranspose, PseudoInverse, DLS, LookAt, MinkSolver, ClosedForm)
 }
 
 
