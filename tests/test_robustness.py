@@ -33,7 +33,7 @@ ZERO_LINK_XML = """
 """
 
 COINCIDENT_XML = """
-<mujoco><worldbody><body>
+<mujoco><default><joint armature="0.01"/></default><worldbody><body>
   <joint name="a" axis="0 0 1"/><joint name="b" axis="0 0 1"/><geom size=".05"/>
   <body pos="1 0 0"><joint name="c" axis="0 0 1"/><geom size=".05"/>
     <site name="tip" pos="1 0 0"/></body>
