@@ -61,6 +61,7 @@ __all__ = [
     "solutions",
     "swivel_intervals",
     "solve_batch",
+    "swivel_angle",
 ]
 
 TWO_PI = 2.0 * math.pi
@@ -74,10 +75,13 @@ class _Triple:
     """Constants of a three-hinge joint whose axes ``u1, u2, u3`` (world, at zero) meet.
 
     ``R = Rot(u1, q1) Rot(u2, q2) Rot(u3, q3)`` is read back from ``y = R u3`` and
-    ``z = R' u1``: ``u1 . y = d12 d23 + K cos(q2 - base)``; ``q1`` turns
-    ``v = Rot(u2, q2) u3`` onto ``y`` about ``u1`` and ``q3`` turns ``z`` onto
-    ``b = Rot(u2, -q2) u1`` about ``u3``. ``gy`` and ``gz`` hold the vectors whose dot
-    products with ``y`` and ``z`` the tests and the angles need.
+    ``z = R' u1``: ``C = u1 . y = d12 d23 + K cos(q2 - base)`` gives ``q2 = base +- delta``;
+    ``q1`` turns ``v = Rot(u2, q2) u3`` onto ``y`` about ``u1``, and ``q3`` turns ``z``
+    onto ``b = Rot(u2, -q2) u1`` about ``u3``. In the frames ``(e1, e2, u1)`` and
+    ``(f1, f2, u3)`` these are differences of plane angles:
+    ``q1 = angle(y1, y2) - angle(v1, v2)`` and ``q3 = angle(b1, b2) - angle(z1, z2)``.
+    ``gy = [u1, e1, e2, ...]`` and ``gz = [f1, f2, ...]`` are the rows dotted with ``y``
+    and ``z``; the rows after those belong to the range-end equations.
     """
 
     def __init__(self, axes: NDArray[np.float64], lower: NDArray, upper: NDArray):
@@ -90,9 +94,17 @@ class _Triple:
         self.dd = d12 * d23
         base = math.atan2(B, A)
         self.cb, self.sb = math.cos(base), math.sin(base)
+        e1 = u2 - d12 * u1
+        e1 /= np.linalg.norm(e1)
+        f1 = u2 - d23 * u3
+        f1 /= np.linalg.norm(f1)
+        self.e1, self.e2 = e1, np.cross(u1, e1)
+        self.f1, self.f2 = f1, np.cross(u3, f1)
         # Rot(u2, q) u3 = v0 + cos q va + sin q vb; Rot(u2, -q) u1 = b0 + cos q ba + sin q bb
         v0, va, vb = d23 * u2, u3 - d23 * u2, np.cross(u2, u3)
         b0, ba, bb = d12 * u2, u1 - d12 * u2, np.cross(u1, u2)
+        self.v = tuple(float(x @ e) for e in (self.e1, self.e2) for x in (v0, va, vb))
+        self.b = tuple(float(x @ f) for f in (self.f1, self.f2) for x in (b0, ba, bb))
         self.lower = np.asarray(lower, dtype=np.float64)
         self.upper = np.asarray(upper, dtype=np.float64)
         # range tests: kind 0 always inside, 1 a sector of at most pi, 2 wider
@@ -109,18 +121,18 @@ class _Triple:
             a, b = lo - RANGE_TOL, hi + RANGE_TOL
             self.ends[j] = (math.cos(a), math.sin(a), math.cos(b), math.sin(b))
             self.center[j] = 0.5 * (lo + hi)
-        rows_y = [u1, v0, va, vb, np.cross(u1, v0), np.cross(u1, va), np.cross(u1, vb)]
-        rows_z = [b0, ba, bb, np.cross(u3, b0), np.cross(u3, ba), np.cross(u3, bb)]
+        rows_y = [u1, self.e1, self.e2]
+        rows_z = [self.f1, self.f2]
         # range-end equations: (source, row, rhs); source 0 reads y, 1 reads z
         eqs: list[tuple[int, int, float]] = []
         ends = [(j, L) for j in range(3) if self.kind[j] for L in (lower[j], upper[j])]
         for j, L in ends:
-            if j == 0:
+            if j == 0:  # (Rot(u1, L) u2) . y = u2 . u3
                 rows_y.append(_rodrigues(u1, L) @ u2)
                 eqs.append((0, len(rows_y) - 1, d23))
-            elif j == 1:
+            elif j == 1:  # u1 . y = u1 . Rot(u2, L) u3
                 eqs.append((0, 0, float(u1 @ _rodrigues(u2, L) @ u3)))
-            else:
+            else:  # (Rot(u3, -L) u2) . z = u1 . u2
                 rows_z.append(_rodrigues(u3, -L) @ u2)
                 eqs.append((1, len(rows_z) - 1, d12))
         # a joint that cannot reach every rotation: where q2 meets the end of its reach
@@ -353,6 +365,7 @@ def _perp_unit(v: NDArray, n: NDArray, fallbacks: list[NDArray]) -> NDArray[np.f
 class _Rows(NamedTuple):
     """One row per (target, elbow branch): everything linear in ``(1, cos psi, sin psi)``."""
 
+    full: NDArray[np.int64]  # (M,) 2 * target + elbow branch
     target: NDArray[np.int64]  # (M,) index of the target
     q4: NDArray[np.float64]  # (M,) elbow angle [rad]
     usable: NDArray[np.bool_]  # (M,) elbow inside its range and branch not a duplicate
@@ -373,7 +386,9 @@ class _Setup(NamedTuple):
     ref: NDArray[np.float64]  # (N, 3) swivel zero direction, normal to n
     R_ref: NDArray[np.float64]  # (M, 3, 3) shoulder rotation at swivel 0
     R_t: NDArray[np.float64] | None  # (N, 3, 3) target rotations
-    distinct: NDArray[np.bool_]  # (M,) False for the second elbow branch when it repeats the first
+    q4: NDArray[np.float64]  # (N, 2) both elbow branches [rad]
+    usable: NDArray[np.bool_]  # (N, 2) elbow inside its range, branch not a repeat
+    elbow_key: NDArray[np.float64]  # (N, 2) range violation, then distance from the start
 
 
 def _setup(
@@ -382,8 +397,12 @@ def _setup(
     R_t: NDArray[np.float64] | None,
     q0: NDArray[np.float64],
     swivel: NDArray[np.float64] | None,
+    keep: str = "best",
 ) -> _Setup:
     """Elbow branches, reference shoulder rotations and the swivel-linear coefficients.
+
+    Rows are made for the elbow branches inside their range (``keep="best"``; a target
+    with none keeps its least violating one) or for every distinct branch (``"all"``).
 
     Args:
         positions: end-effector targets ``(N, 3)`` [m].
@@ -426,9 +445,19 @@ def _setup(
     distinct = np.ones((N, 2), dtype=bool)
     distinct[:, 1] = (phi > 1e-12) & (phi < math.pi - 1e-12)
     usable = (q4 >= ctx.elbow_lo - RANGE_TOL) & (q4 <= ctx.elbow_hi + RANGE_TOL) & distinct
-    M = 2 * N
-    target = np.repeat(np.arange(N), 2)
-    q4f = q4.reshape(M)
+    el_viol = np.maximum(ctx.elbow_lo - q4, 0.0) + np.maximum(q4 - ctx.elbow_hi, 0.0)
+    el_key = el_viol * 1e3 + np.abs(q4 - q0[:, 3:4]) + np.where(distinct, 0.0, 1e9)
+    if keep == "all":
+        kept = distinct
+    else:
+        kept = usable | (
+            ~usable.any(axis=1, keepdims=True)
+            & (np.arange(2) == np.argmin(el_key, axis=1)[:, None])
+        )
+    full = np.flatnonzero(kept.reshape(2 * N))
+    M = full.size
+    target = full // 2
+    q4f = q4.reshape(2 * N)[full]
     nn = n[target]
     # the forearm point with the elbow bent, shoulder at zero, and the arm's frame there
     ce, se = np.cos(q4f), np.sin(q4f)
@@ -482,13 +511,25 @@ def _setup(
         sp = np.where(ok, y_ / np.where(ok, norm, 1.0), 0.0)
     else:
         cp, sp = np.cos(swivel), np.sin(swivel)
-    rows = _Rows(target, q4f, usable.reshape(M), sh_y, sh_z, wr_y, wr_z, cp[target], sp[target])
-    return _Setup(rows, reach, inner, q_wrist, n, ref, R_ref, R_t, distinct.reshape(M))
+    rows = _Rows(
+        full,
+        target,
+        q4f,
+        usable.reshape(2 * N)[full],
+        sh_y,
+        sh_z,
+        wr_y,
+        wr_z,
+        cp[target],
+        sp[target],
+    )
+    return _Setup(rows, reach, inner, q_wrist, n, ref, R_ref, R_t, q4, usable, el_key)
 
 
 def _take(rows: _Rows, idx: NDArray[np.int64]) -> _Rows:
     """The rows ``idx``."""
     return _Rows(
+        rows.full[idx],
         rows.target[idx],
         rows.q4[idx],
         rows.usable[idx],
@@ -542,26 +583,30 @@ class _Eval(NamedTuple):
 
 def _evaluate(tri: _Triple, cy: NDArray, cz: NDArray, c: NDArray, s: NDArray) -> _Eval:
     """Both decompositions of the joint at swivels ``(cos, sin)`` of shape ``(M, K)``."""
-    Y = _lin(cy, c, s)
-    Z = _lin(cz, c, s)
-    C = Y[0]
+    C, y1, y2 = _lin(cy[:, :3], c, s)
+    z1, z2 = _lin(cz[:, :2], c, s)
     cd = (C - tri.dd) * (1.0 / tri.K)
     if tri.always:
         dec = np.ones(C.shape, dtype=bool)
     else:
         dec = np.abs(cd) <= 1.0 + 1e-12
     sd = np.sqrt(np.maximum(1.0 - cd * cd, 0.0))
-    C2 = C * C
+    V01, Va1, Vb1, V02, Va2, Vb2 = tri.v
+    B01, Ba1, Bb1, B02, Ba2, Bb2 = tri.b
     out = _Eval(C, dec, [], [], [], [], [], [], [])
     for sign in (1.0, -1.0):
         cq = tri.cb * cd - sign * tri.sb * sd
         sq = tri.sb * cd + sign * tri.cb * sd
-        x1 = Y[1] + cq * Y[2] + sq * Y[3] - C2
-        y1 = Y[4] + cq * Y[5] + sq * Y[6]
-        x3 = Z[0] + cq * Z[1] + sq * Z[2] - C2
-        y3 = -(Z[3] + cq * Z[4] + sq * Z[5])
-        ok = _and(_and(_inside(tri, 0, x1, y1), _inside(tri, 1, cq, sq)), _inside(tri, 2, x3, y3))
-        for lst, val in zip(out[2:], (ok, cq, sq, x1, y1, x3, y3), strict=True):
+        v1 = V01 + cq * Va1 + sq * Vb1
+        v2 = V02 + cq * Va2 + sq * Vb2
+        x1 = y1 * v1 + y2 * v2
+        w1 = y2 * v1 - y1 * v2
+        b1 = B01 + cq * Ba1 + sq * Bb1
+        b2 = B02 + cq * Ba2 + sq * Bb2
+        x3 = b1 * z1 + b2 * z2
+        w3 = b2 * z1 - b1 * z2
+        ok = _and(_and(_inside(tri, 0, x1, w1), _inside(tri, 1, cq, sq)), _inside(tri, 2, x3, w3))
+        for lst, val in zip(out[2:], (ok, cq, sq, x1, w1, x3, w3), strict=True):
             lst.append(val)
     return out
 
@@ -689,18 +734,48 @@ def _joint_angles(
     for i in np.flatnonzero(1.0 - ev.C[:, 0] ** 2 < _GIMBAL):
         R = _explicit(ctx, setup, int(m[i]), float(c[i]), float(s[i]), wrist)
         axes = ctx.geo.wrist_axes if wrist else ctx.geo.shoulder_axes
-        sols = decompose_three_axes(R, *axes, q1_free=float(q_pref[i, 0]))
         center = np.where(tri.kind > 0, tri.center, q_pref[i])
         best = None
-        for sol in sols:
-            qq = _into_range(sol, tri.lower, tri.upper, center)
-            vv = float(np.sum(np.maximum(tri.lower - qq, 0.0) + np.maximum(qq - tri.upper, 0.0)))
-            key = (vv, float(np.sum(np.abs(qq - q_pref[i]))))
-            if best is None or key < best[0]:
-                best = (key, qq, vv)
+        for sol in decompose_three_axes(R, *axes, q1_free=float(q_pref[i, 0])):
+            for qq in _gimbal_family(tri, sol, float(q_pref[i, 0])):
+                qq = _into_range(qq, tri.lower, tri.upper, center)
+                vv = float(
+                    np.sum(np.maximum(tri.lower - qq, 0.0) + np.maximum(qq - tri.upper, 0.0))
+                )
+                key = (vv > 3 * RANGE_TOL, vv, float(np.sum(np.abs(qq - q_pref[i]))))
+                if best is None or key < best[0]:
+                    best = (key, qq, vv)
         if best is not None:
             q[i], v[i] = best[1], best[2]
     return q, v
+
+
+def _gimbal_family(tri: _Triple, sol: NDArray, q1_pref: float) -> list[NDArray]:
+    """``sol`` and, when the outer axes align, other splits of ``q1 +- q3`` that may fit.
+
+    With ``Rot(u2, q2) u3 = sigma u1`` the rotation is ``Rot(u1, q1 + sigma q3) Rot(u2, q2)``:
+    any ``q1`` works with ``q3 = sigma (q1 + sigma q3 - q1)``. The candidates are ``q1`` at
+    the preferred value, at its range ends and where ``q3`` meets its range ends.
+    """
+    v = _rodrigues(tri.u2, float(sol[1])) @ tri.u3
+    align = float(v @ tri.u1)
+    if abs(align) < 1.0 - 1e-6:
+        return [sol]
+    sigma = 1.0 if align > 0 else -1.0
+    total = sol[0] + sigma * sol[2]
+    q1s = [q1_pref]
+    if tri.kind[0]:
+        q1s += [tri.lower[0], tri.upper[0]]
+    if tri.kind[2]:
+        q1s += [
+            total - sigma * L + TWO_PI * k for L in (tri.lower[2], tri.upper[2]) for k in (-1, 0, 1)
+        ]
+    out = [sol]
+    for q1 in q1s:
+        if tri.kind[0] and not tri.lower[0] <= q1 <= tri.upper[0]:
+            continue
+        out.append(np.array([q1, sol[1], sigma * (total - q1)]))
+    return out
 
 
 class _Solved(NamedTuple):
@@ -724,40 +799,57 @@ def _solve_chunk(
     setup = _setup(ctx, positions, R_t, q0, swivel)
     rows = setup.rows
     N = positions.shape[0]
+    # per (target, elbow branch): distance key of the best swivel and its cos, sin
+    dist = np.full(2 * N, np.inf)
+    bc, bs = np.ones(2 * N), np.zeros(2 * N)
+    bc[rows.full], bs[rows.full] = rows.cp, rows.sp
     # 1. the preferred swivel itself
     ok0 = _feasible(rows, ctx, rows.cp[:, None], rows.sp[:, None])[:, 0]
-    dist = np.where(ok0, 0.0, np.inf)
-    bc, bs = rows.cp.copy(), rows.sp.copy()
-    # 2. otherwise the nearest swivel where a joint meets a range end and all are inside
-    done = ok0.reshape(N, 2).any(axis=1)
+    dist[rows.full[ok0]] = 0.0
+    # 2. otherwise the nearest swivel where a joint meets a range end and all are inside,
+    #    trying the nearest few candidates first
+    done = np.isfinite(dist.reshape(N, 2)).any(axis=1)
     need = np.flatnonzero(~done[rows.target] & rows.usable)
     if need.size:
         sub = _take(rows, need)
         c, s, v = _candidates(sub, ctx)
-        if c.shape[1]:
-            f = _feasible(sub, ctx, c, s) & v
-            d = np.where(f, 1.0 - (c * sub.cp[:, None] + s * sub.sp[:, None]), np.inf)
-            k = np.argmin(d, axis=1)
-            r = np.arange(need.size)
-            dist[need], bc[need], bs[need] = d[r, k], c[r, k], s[r, k]
+        d = np.where(v, 1.0 - (c * sub.cp[:, None] + s * sub.sp[:, None]), np.inf)
+        order = np.argsort(d, axis=1)
+        d = np.take_along_axis(d, order, axis=1)
+        c = np.take_along_axis(c, order, axis=1)
+        s = np.take_along_axis(s, order, axis=1)
+        todo = np.arange(need.size)
+        start = 0
+        for width in (6, d.shape[1]):
+            stop = min(width, d.shape[1])
+            if start >= stop or todo.size == 0:
+                break
+            part = _take(sub, todo)
+            cc, ss, dd = c[todo, start:stop], s[todo, start:stop], d[todo, start:stop]
+            f = _feasible(part, ctx, cc, ss) & np.isfinite(dd)
+            hit = f.any(axis=1)
+            k = np.argmax(f, axis=1)
+            rows_hit, k = np.flatnonzero(hit), k[hit]
+            idx = rows.full[need[todo[rows_hit]]]
+            dist[idx], bc[idx], bs[idx] = dd[rows_hit, k], cc[rows_hit, k], ss[rows_hit, k]
+            todo = todo[~hit & np.isfinite(d[todo, stop - 1])]
+            start = stop
     # 3. the elbow branch with the closer swivel (then the closer elbow angle)
     d2 = dist.reshape(N, 2)
-    q4 = rows.q4.reshape(N, 2)
-    el_viol = np.maximum(ctx.elbow_lo - q4, 0.0) + np.maximum(q4 - ctx.elbow_hi, 0.0)
-    el_key = (
-        el_viol * 1e3 + np.abs(q4 - q0[:, 3:4]) + np.where(setup.distinct, 0.0, 1e9).reshape(N, 2)
-    )
     pick = np.where(
         d2[:, 0] < d2[:, 1] - 1e-12,
         0,
-        np.where(d2[:, 1] < d2[:, 0] - 1e-12, 1, np.argmin(el_key, axis=1)),
+        np.where(d2[:, 1] < d2[:, 0] - 1e-12, 1, np.argmin(setup.elbow_key, axis=1)),
     )
     idx = np.arange(N)
     feasible = np.isfinite(d2[idx, pick])
-    m = 2 * idx + pick
-    c, s = bc[m], bs[m]
+    where = np.full(2 * N, -1)
+    where[rows.full] = np.arange(rows.full.size)
+    full = 2 * idx + pick
+    m = where[full]
+    c, s = bc[full], bs[full]
     q = np.empty((N, 7))
-    q[:, 3] = q4[idx, pick]
+    q[:, 3] = setup.q4[idx, pick]
     q[:, :3], _ = _joint_angles(ctx, setup, m, c, s, q0[:, :3], wrist=False)
     if R_t is None:
         q[:, 4:] = setup.q_wrist
@@ -765,7 +857,7 @@ def _solve_chunk(
         q[:, 4:], _ = _joint_angles(ctx, setup, m, c, s, q0[:, 4:], wrist=True)
     # infeasible targets keep their least violating branch, moved inside the ranges
     q = np.clip(q, ctx.lower, ctx.upper)
-    elbow_ok = rows.usable.reshape(N, 2).any(axis=1)
+    elbow_ok = setup.usable.any(axis=1)
     return _Solved(q, feasible, setup.reach, setup.inner, elbow_ok, np.arctan2(s, c), setup)
 
 
@@ -928,15 +1020,13 @@ def solutions(
     psi = _swivels(swivel, 1)
     assert psi is not None
     R = None if tgt.rotation is None else tgt.rotation[None]
-    setup = _setup(ctx, tgt.position[None], R, np.ascontiguousarray(q_start), psi)
+    setup = _setup(ctx, tgt.position[None], R, np.ascontiguousarray(q_start), psi, keep="all")
     if setup.reach[0] > 0.0:
         return []
     rows = setup.rows
     c, s = np.cos(psi), np.sin(psi)
     out: list[Branch] = []
-    for m in (0, 1):
-        if not setup.distinct[m]:
-            continue
+    for m in range(rows.full.size):
         parts = []
         for wrist in (False, True) if R is not None else (False,):
             tri = ctx.wr if wrist else ctx.sh
@@ -950,7 +1040,7 @@ def solutions(
         for i, qs in enumerate(parts[0]):
             for j, qw in enumerate(parts[1]):
                 q = np.concatenate([qs, [rows.q4[m]], qw])
-                out.append(Branch(q, chain.within_limits(q), m, i, j))
+                out.append(Branch(q, chain.within_limits(q), int(rows.full[m] % 2), i, j))
     return out
 
 
@@ -962,7 +1052,8 @@ def swivel_intervals(
     Interval ends are exact roots of ``k_c cos psi + k_s sin psi = d`` (a joint at a range
     end); between two consecutive roots feasibility is constant and is tested at the
     midpoint. A whole circle is returned as ``[-pi, pi]``. Empty when the target is
-    beyond reach or nothing is feasible.
+    beyond reach or nothing is feasible. ``q0`` only matters for a position target (the
+    wrist keeps its angles).
 
     Raises:
         SolverError: the chain is not a spherical shoulder + elbow + spherical wrist.
@@ -976,36 +1067,33 @@ def swivel_intervals(
     if setup.reach[0] > 0.0:
         return []
     out: list[SwivelInterval] = []
-    for m in (0, 1):
-        if not setup.rows.usable[m]:
-            continue
+    for m in np.flatnonzero(setup.rows.usable):
         sub = _take(setup.rows, np.array([m]))
+        elbow, q4 = int(sub.full[0] % 2), float(sub.q4[0])
         c, s, v = _candidates(sub, ctx)
         roots = np.sort(np.arctan2(s[v], c[v]))
-        q4 = float(setup.rows.q4[m])
         if roots.size == 0:
             if _feasible(sub, ctx, np.ones((1, 1)), np.zeros((1, 1)))[0, 0]:
-                out.append(SwivelInterval(m, q4, -math.pi, math.pi))
+                out.append(SwivelInterval(elbow, q4, -math.pi, math.pi))
             continue
         ends = np.append(roots[1:], roots[0] + TWO_PI)
         mids = 0.5 * (roots + ends)
         f = _feasible(sub, ctx, np.cos(mids)[None], np.sin(mids)[None])[0]
         if f.all():
-            out.append(SwivelInterval(m, q4, -math.pi, math.pi))
+            out.append(SwivelInterval(elbow, q4, -math.pi, math.pi))
             continue
-        # merge feasible arcs, starting after an infeasible one
-        k0 = int(np.flatnonzero(~f)[0]) + 1
-        start = None
-        for k in range(k0, k0 + f.size):
-            i = k % f.size
-            if f[i] and start is None:
-                start = roots[i] + (TWO_PI if k >= f.size else 0.0)
+        # runs of feasible arcs, walking once round from the first infeasible one
+        K, i0 = f.size, int(np.flatnonzero(~f)[0])
+        run = None
+        for j in range(1, K + 1):
+            i = (i0 + j) % K
+            wrap = TWO_PI if i0 + j >= K else 0.0
             if f[i]:
-                end = ends[i] + (TWO_PI if k >= f.size else 0.0)
-            if start is not None and (not f[(k + 1) % f.size] or k == k0 + f.size - 1):
-                shift = TWO_PI * math.floor((start + math.pi) / TWO_PI)
-                out.append(SwivelInterval(m, q4, float(start - shift), float(end - shift)))
-                start = None
+                run = (roots[i] + wrap if run is None else run[0], ends[i] + wrap)
+            elif run is not None:
+                shift = TWO_PI * math.floor((run[0] + math.pi) / TWO_PI)
+                out.append(SwivelInterval(elbow, q4, float(run[0] - shift), float(run[1] - shift)))
+                run = None
     return out
 
 
@@ -1126,27 +1214,18 @@ class _ScalarTriple:
 
     def __init__(self, tri: _Triple):
         u1, u2, u3 = tri.u1, tri.u2, tri.u3
-        e1 = u2 - (u2 @ u1) * u1
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(u1, e1)
-        f1 = u2 - (u2 @ u3) * u3
-        f1 /= np.linalg.norm(f1)
-        f2 = np.cross(u3, f1)
+        e1, e2, f1, f2 = tri.e1, tri.e2, tri.f1, tri.f2
         self.e1, self.e2, self.f1, self.f2 = e1, e2, f1, f2
         self.u1, self.u3 = _tup(u1), _tup(u3)
         self.dd, self.invK = tri.dd, 1.0 / tri.K
         self.cb, self.sb = tri.cb, tri.sb
         d12, d23 = float(u1 @ u2), float(u2 @ u3)
-        v0, va, vb = d23 * u2, u3 - d23 * u2, np.cross(u2, u3)
-        b0, ba, bb = d12 * u2, u1 - d12 * u2, np.cross(u1, u2)
-        self.v = tuple(float(x @ e) for e in (e1, e2) for x in (v0, va, vb))
-        self.b = tuple(float(x @ f) for f in (f1, f2) for x in (b0, ba, bb))
+        self.v, self.b = tri.v, tri.b
         self.in1, self.in2, self.in3 = (_sector(tri, j) for j in range(3))
         self.lower = tuple(float(x) for x in tri.lower)
         self.upper = tuple(float(x) for x in tri.upper)
         self.center = tuple(float(x) for x in tri.center)
         self.kind = tuple(int(k) for k in tri.kind)
-        self.tol = RANGE_TOL
         # range-end equations: (kind, p_a, p_b, p_c, rhs)
         eqs = []
         for j in range(3):
@@ -1455,3 +1534,26 @@ def _solve_one(
     q.append(q4)
     q += wr.angles(kwr, c, s, q0[4:])
     return q, math.atan2(s, c)
+
+
+def swivel_angle(chain: Chain, q: ArrayLike) -> float:
+    """The swivel [rad] of posture ``q (7,)``: its elbow about its own shoulder-wrist line.
+
+    Solving the pose of ``q`` with this as the preferred swivel returns ``q``'s elbow
+    position (and ``q`` itself when its branches are the ones closest to the start).
+
+    Raises:
+        SolverError: the chain is not a spherical shoulder + elbow + spherical wrist.
+        TargetError: ``q`` is not 7 finite values.
+    """
+    ctx = _context(chain)
+    qq = chain.check_q(q)
+    sh = ctx.sh
+    e = (ctx.Ea - ctx.S)[None]
+    w = (ctx.Ea - ctx.S + _rodrigues(ctx.ue, float(qq[3])) @ (ctx.W0 - ctx.Ea))[None]
+    for k, u in ((2, sh.u3), (1, sh.u2), (0, sh.u1)):
+        c, s = np.cos(qq[k : k + 1]), np.sin(qq[k : k + 1])
+        e, w = _rotate(u, c, s, e), _rotate(u, c, s, w)
+    n = _unit(w, np.array([[1.0, 0.0, 0.0]]))
+    ref = _perp_unit(ctx.geo.down[None], n, [np.eye(3)[0], np.eye(3)[1]])
+    return float(np.arctan2(np.sum(e * np.cross(n, ref)), np.sum(e * ref)))
