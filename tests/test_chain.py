@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -217,3 +219,12 @@ def test_bundled_model_path_points_at_scene():
     p = bundled_model_path()
     assert p.parts[-3:] == ("models", "humanoid", "scene.xml")
     assert p.is_file()
+
+
+def test_robot_path_includes_the_waist():
+    """On the robot humanoid the default right-hand chain is the waist and the 7 arm
+    hinges: the floating base ends the path."""
+    robot = Path(__file__).resolve().parents[1] / "models" / "robot" / "robot.xml"
+    chain = Chain(robot, "right_hand_site")
+    assert chain.joint_names[0] == "waist_yaw" and chain.n == 8
+    assert chain.joint_names[-1] == "r_wr_yaw"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,9 +15,20 @@ from .chains import SMALL_ARM_XML, model
 
 N = 500
 REACHING = ["two_link", "ccd", "jacobian_transpose", "pseudoinverse", "dls"]
+ROBOT = Path(__file__).resolve().parents[1] / "models" / "robot" / "robot.xml"
+ROBOT_ARM = [
+    "r_sh_pitch",
+    "r_sh_roll",
+    "r_sh_yaw",
+    "r_elbow",
+    "r_wr_roll",
+    "r_wr_pitch",
+    "r_wr_yaw",
+]
 ARMS = {
     "humanoid_right": lambda: Chain(),
     "small_arm": lambda: Chain(model(SMALL_ARM_XML), "tip"),
+    "robot_right": lambda: Chain(ROBOT, "right_hand_site", ROBOT_ARM),
 }
 
 
@@ -35,7 +47,7 @@ def _targets(chain: Chain, n: int, seed: int, pose: bool, keep_wrist: bool = Fal
 
 def _check_round_trips(chain: Chain, solver_name: str, targets, pose: bool):
     solver = make_solver(solver_name)
-    checker = Chain(chain.model, chain.ee_name) if chain.ee_kind == "site" else None
+    checker = Chain(chain.model, chain.ee_name, chain.joint_names)
     worst_p, worst_r = 0.0, 0.0
     for tgt in targets:
         chain.reset()
