@@ -67,7 +67,7 @@ TRAIL_COLORS = (
     (0.3, 0.95, 0.9),
 )
 """Trail colour of effector 0, 1, 2, 3 (then repeating)."""
-MARKER_RADIUS = 0.016
+MARKER_RADIUS = 0.02
 """Target marker radius [m] (an opaque core)..."""
 HALO_RADIUS = 0.04
 """... inside a translucent halo [m], which shows around a hand that covers the core."""
@@ -351,9 +351,13 @@ class FrameRenderer:
         effector's target orientation, wxyz, or ``None``)."""
         while len(self._trails) < len(record.samples):
             self._trails.append(deque(maxlen=max(1, self.trail)))
+        # a target a hand reaches for is drawn (and trailed) once, for the hand
+        reached = {s.target_name for s in record.samples if s.task == "reach"}
+        drawn: set[str] = set()
         for k, s in enumerate(record.samples):
             trail = self._trails[k]
-            if self.trail > 0:
+            shared = s.task == "look_at" and s.target_name in reached
+            if self.trail > 0 and not shared:
                 trail.append(s.achieved.copy())
                 rgb = TRAIL_COLORS[k % len(TRAIL_COLORS)]
                 pts = list(trail)
@@ -367,14 +371,16 @@ class FrameRenderer:
                 color = COLORS["tracking"]
             else:
                 color = COLORS["unreachable"]
-            self._sphere(scene, s.target, MARKER_RADIUS, color)
-            self._sphere(scene, s.target, HALO_RADIUS, (*color[:3], 0.3))
+            if s.target_name not in drawn:
+                drawn.add(s.target_name)
+                self._sphere(scene, s.target, MARKER_RADIUS, color)
+                self._sphere(scene, s.target, HALO_RADIUS, (*color[:3], 0.3))
             site = data.site_xpos[self._site_id(s.effector)]
             if s.task == "look_at":
                 self._segment(scene, site, s.achieved, 0.003, COLORS["gaze"])
             elif not s.reachable:
                 self._segment(scene, site, s.target, 0.004, COLORS["gap"])
-        # pose targets: their axes (x red, y green, z blue), 6 cm long
+        # pose targets: their axes (x red, y green, z blue), 9 cm long
         for k, s in enumerate(record.samples):
             quat = quats[k] if k < len(quats) else None
             if quat is None:
@@ -383,8 +389,8 @@ class FrameRenderer:
             mujoco.mju_quat2Mat(R, quat)
             R = R.reshape(3, 3)
             for axis, rgb in enumerate(((0.9, 0.3, 0.3), (0.3, 0.9, 0.3), (0.3, 0.4, 1.0))):
-                end = s.target + 0.06 * R[:, axis]
-                self._segment(scene, s.target, end, 0.0035, (*rgb, 1.0))
+                end = s.target + 0.09 * R[:, axis]
+                self._segment(scene, s.target, end, 0.005, (*rgb, 1.0))
 
     def _site_id(self, name: str) -> int:
         sid = self._sites.get(name)

@@ -636,15 +636,16 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
             owner[j] = i
         spec = scene.solver_for(eff)
         target = scene.target(eff.target)
+        where = f"{key}.solver.name" if eff.solver is not None else "solver.name"
         if eff.task == "reach" and spec.name == "look_at":
             raise r.fail(
-                f"{key}.task",
-                "expected task = 'look_at' for the look_at solver (it aims, it does not reach)",
+                where,
+                f"solver 'look_at' aims a site at a point; {key} ({eff.site}) reaches "
+                "(task = 'reach'); expected a reaching solver or task = 'look_at'",
             )
         solver = spec.make()
         reason = None if _is_multi(spec.name) else solver.applicable(chain, target.is_pose)
         if reason is not None:
-            where = f"{key}.solver.name" if eff.solver is not None else "solver.name"
             raise r.fail(where, f"solver '{spec.name}' cannot drive {key} ({eff.site}): {reason}")
         chains.append(chain)
 
