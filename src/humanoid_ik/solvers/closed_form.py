@@ -45,7 +45,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.chain import Chain
 from humanoid_ik.errors import SolverError, TargetError
-from humanoid_ik.rotations import decompose_three_axes
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.two_link import _meeting_point
 from humanoid_ik.types import IKResult, Target
@@ -137,6 +136,8 @@ class _Triple:
                 eqs.append((1, len(rows_z) - 1, d12))
         # a joint that cannot reach every rotation: where q2 meets the end of its reach
         self.always = self.dd - self.K <= -1.0 + 1e-12 and self.dd + self.K >= 1.0 - 1e-12
+        # u1 _|_ u2 _|_ u3: then C = cos(delta) and sin(delta) is the length of y normal to u1
+        self.ortho = abs(d12) < 1e-12 and abs(d23) < 1e-12
         if not self.always:
             eqs += [(0, 0, self.dd + self.K), (0, 0, self.dd - self.K)]
         self.gy = np.array(rows_y)  # (Ry, 3)
@@ -590,7 +591,10 @@ def _evaluate(tri: _Triple, cy: NDArray, cz: NDArray, c: NDArray, s: NDArray) ->
         dec = np.ones(C.shape, dtype=bool)
     else:
         dec = np.abs(cd) <= 1.0 + 1e-12
-    sd = np.sqrt(np.maximum(1.0 - cd * cd, 0.0))
+    if tri.ortho:  # sin(delta) = |y normal to u1|: exact next to the axis alignment
+        sd = np.sqrt(y1 * y1 + y2 * y2)
+    else:
+        sd = np.sqrt(np.maximum(1.0 - cd * cd, 0.0))
     V01, Va1, Vb1, V02, Va2, Vb2 = tri.v
     B01, Ba1, Bb1, B02, Ba2, Bb2 = tri.b
     out = _Eval(C, dec, [], [], [], [], [], [], [])
@@ -670,20 +674,21 @@ def _into_range(q: NDArray, lo, hi, center) -> NDArray[np.float64]:
 def _triple_angles(
     tri: _Triple, ev: _Eval, q_pref: NDArray
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Both branches' angles ``(2, M, 3)``, their range violation ``(2, M)`` and validity.
+    """Both branches' angles ``(2, M, K, 3)``, range violation ``(2, M, K)``, validity.
 
-    ``ev`` holds one swivel per row (``K = 1``); unlimited joints are wrapped next to
-    ``q_pref (M, 3)``.
+    Each angle is shifted by 2 pi next to the middle of its range; unlimited joints next
+    to ``q_pref (M, 3)``.
     """
-    out = np.empty((2, q_pref.shape[0], 3))
+    shape = ev.C.shape
+    out = np.empty((2, *shape, 3))
     for b in range(2):
-        out[b, :, 0] = np.arctan2(ev.y1[b][:, 0], ev.x1[b][:, 0])
-        out[b, :, 1] = np.arctan2(ev.s2[b][:, 0], ev.c2[b][:, 0])
-        out[b, :, 2] = np.arctan2(ev.y3[b][:, 0], ev.x3[b][:, 0])
-    center = np.where(tri.kind > 0, tri.center, q_pref)
+        out[b, ..., 0] = np.arctan2(ev.y1[b], ev.x1[b])
+        out[b, ..., 1] = np.arctan2(ev.s2[b], ev.c2[b])
+        out[b, ..., 2] = np.arctan2(ev.y3[b], ev.x3[b])
+    center = np.where(tri.kind > 0, tri.center, q_pref[:, None, :])
     out = _into_range(out, tri.lower, tri.upper, center)
-    viol = np.sum(np.maximum(tri.lower - out, 0.0) + np.maximum(out - tri.upper, 0.0), axis=2)
-    valid = np.broadcast_to(ev.decomposable[:, 0], viol.shape)
+    viol = np.sum(np.maximum(tri.lower - out, 0.0) + np.maximum(out - tri.upper, 0.0), axis=-1)
+    valid = np.broadcast_to(ev.decomposable, viol.shape)
     return out, viol, valid
 
 
@@ -730,15 +735,13 @@ def _joint_angles(
     cz = (rows.wr_z if wrist else rows.sh_z)[:, :, m]
     ev = _evaluate(tri, cy, cz, c[:, None], s[:, None])
     ang, viol, valid = _triple_angles(tri, ev, q_pref)
-    q, v = _pick_branch(ang, viol, valid, q_pref)
+    q, v = _pick_branch(ang[:, :, 0], viol[:, :, 0], valid[:, :, 0], q_pref)
     for i in np.flatnonzero(1.0 - ev.C[:, 0] ** 2 < _GIMBAL):
         R = _explicit(ctx, setup, int(m[i]), float(c[i]), float(s[i]), wrist)
-        axes = ctx.geo.wrist_axes if wrist else ctx.geo.shoulder_axes
-        center = np.where(tri.kind > 0, tri.center, q_pref[i])
         best = None
-        for sol in decompose_three_axes(R, *axes, q1_free=float(q_pref[i, 0])):
-            for qq in _gimbal_family(tri, sol, float(q_pref[i, 0])):
-                qq = _into_range(qq, tri.lower, tri.upper, center)
+        for b in (0, 1) if ev.decomposable[i, 0] else ():
+            q2 = math.atan2(float(ev.s2[b][i, 0]), float(ev.c2[b][i, 0]))
+            for qq in _gimbal_splits(tri, R, q2, ang[b, i, 0], q_pref[i]):
                 vv = float(
                     np.sum(np.maximum(tri.lower - qq, 0.0) + np.maximum(qq - tri.upper, 0.0))
                 )
@@ -750,32 +753,37 @@ def _joint_angles(
     return q, v
 
 
-def _gimbal_family(tri: _Triple, sol: NDArray, q1_pref: float) -> list[NDArray]:
-    """``sol`` and, when the outer axes align, other splits of ``q1 +- q3`` that may fit.
+def _gimbal_splits(
+    tri: _Triple, R: NDArray, q2: float, plain: NDArray, q_pref: NDArray
+) -> list[NDArray[np.float64]]:
+    """Angles of ``R`` with the middle one ``q2`` when the outer axes nearly align.
 
-    With ``Rot(u2, q2) u3 = sigma u1`` the rotation is ``Rot(u1, q1 + sigma q3) Rot(u2, q2)``:
-    any ``q1`` works with ``q3 = sigma (q1 + sigma q3 - q1)``. The candidates are ``q1`` at
-    the preferred value, at its range ends and where ``q3`` meets its range ends.
+    ``q3`` is read from the remainder ``Rot(u2, -q2) Rot(u1, -q1) R``, which absorbs the
+    error of a poorly conditioned ``q1``. In the lock itself (``R u3`` within 1e-10 of
+    ``+-u1``) only ``q1 +- q3`` is fixed and several ``q1`` are tried: the preferred one,
+    the ends of its range, and those that put ``q3`` on the ends of its range.
     """
-    v = _rodrigues(tri.u2, float(sol[1])) @ tri.u3
-    align = float(v @ tri.u1)
-    if abs(align) < 1.0 - 1e-6:
-        return [sol]
-    sigma = 1.0 if align > 0 else -1.0
-    total = sol[0] + sigma * sol[2]
-    q1s = [q1_pref]
+    y = R @ tri.u3
+    yp = y - float(y @ tri.u1) * tri.u1
+    R2t = _rodrigues(tri.u2, -q2)
+    center = np.where(tri.kind > 0, tri.center, q_pref)
+
+    def split(q1: float) -> NDArray[np.float64]:
+        R3 = R2t @ _rodrigues(tri.u1, -q1) @ R
+        r = R3 @ tri.f1
+        q3 = math.atan2(float(tri.f2 @ r), float(tri.f1 @ r))
+        return _into_range(np.array([q1, q2, q3]), tri.lower, tri.upper, center)
+
+    if float(np.linalg.norm(yp)) > 1e-10:
+        return [split(float(plain[0]))]
+    sigma = 1.0 if float(y @ tri.u1) > 0 else -1.0
+    total = float(split(0.0)[2]) * sigma  # q1 + sigma q3
+    q1s = [float(q_pref[0])]
     if tri.kind[0]:
-        q1s += [tri.lower[0], tri.upper[0]]
+        q1s += [float(tri.lower[0]), float(tri.upper[0])]
     if tri.kind[2]:
-        q1s += [
-            total - sigma * L + TWO_PI * k for L in (tri.lower[2], tri.upper[2]) for k in (-1, 0, 1)
-        ]
-    out = [sol]
-    for q1 in q1s:
-        if tri.kind[0] and not tri.lower[0] <= q1 <= tri.upper[0]:
-            continue
-        out.append(np.array([q1, sol[1], sigma * (total - q1)]))
-    return out
+        q1s += [total - sigma * float(L) for L in (tri.lower[2], tri.upper[2])]
+    return [split(q1) for q1 in q1s]
 
 
 class _Solved(NamedTuple):
@@ -875,6 +883,8 @@ class Branch(NamedTuple):
     """Shoulder decomposition branch: 0 or 1 (``q2 = base +- delta``)."""
     wrist: int
     """Wrist decomposition branch: 0 or 1 (0 for a position-only target: wrist kept)."""
+    swivel: float
+    """The swivel [rad] this joint vector belongs to."""
 
 
 class SwivelInterval(NamedTuple):
@@ -1002,13 +1012,23 @@ def solve_batch(
 
 
 def solutions(
-    chain: Chain, target: Target | ArrayLike, swivel: float, q0: ArrayLike | None = None
+    chain: Chain,
+    target: Target | ArrayLike,
+    swivel: float | ArrayLike,
+    q0: ArrayLike | None = None,
 ) -> list[Branch]:
-    """Every joint vector that reaches ``target`` at swivel ``swivel`` [rad].
+    """Every joint vector that reaches ``target`` at the swivel(s) ``swivel`` [rad].
 
-    Up to eight for a pose (two elbow, two shoulder and two wrist branches), up to four
-    for a position (the wrist keeps ``q0``'s angles). Empty when the target is beyond
-    reach. ``valid`` tells which stay inside the joint ranges.
+    Per swivel up to eight for a pose (two elbow, two shoulder and two wrist branches),
+    up to four for a position (the wrist keeps ``q0``'s angles). Empty when the target
+    is beyond reach. ``valid`` tells which stay inside the joint ranges.
+
+    Args:
+        chain: a 7-hinge arm (see :func:`structure_problem`).
+        target: a :class:`Target` or a position ``(3,)`` [m].
+        swivel: one swivel or ``(K,)`` of them [rad].
+        q0: starting posture ``(7,)`` (the wrist of a position target, and the 2 pi
+            shift of unlimited joints); default the chain's joints.
 
     Raises:
         SolverError: the chain is not a spherical shoulder + elbow + spherical wrist.
@@ -1016,31 +1036,39 @@ def solutions(
     """
     ctx = _context(chain)
     tgt = Target.of(target)
-    q_start = _starts(chain, q0, 1)
-    psi = _swivels(swivel, 1)
-    assert psi is not None
+    q_start = np.ascontiguousarray(_starts(chain, q0, 1))
+    psi = np.atleast_1d(np.asarray(swivel, dtype=np.float64))
+    if psi.ndim != 1 or not np.all(np.isfinite(psi)):
+        raise TargetError(f"swivel must be finite angles, one or (K,), got {swivel!r}")
     R = None if tgt.rotation is None else tgt.rotation[None]
-    setup = _setup(ctx, tgt.position[None], R, np.ascontiguousarray(q_start), psi, keep="all")
+    setup = _setup(ctx, tgt.position[None], R, q_start, np.zeros(1), keep="all")
     if setup.reach[0] > 0.0:
         return []
     rows = setup.rows
-    c, s = np.cos(psi), np.sin(psi)
+    c, s = np.cos(psi)[None], np.sin(psi)[None]  # (1, K)
+    lo, hi = ctx.lower - RANGE_TOL, ctx.upper + RANGE_TOL
     out: list[Branch] = []
     for m in range(rows.full.size):
-        parts = []
+        parts = []  # per joint: list of (branch, angles (K, 3), decomposable (K,))
         for wrist in (False, True) if R is not None else (False,):
             tri = ctx.wr if wrist else ctx.sh
             cy = (rows.wr_y if wrist else rows.sh_y)[:, :, [m]]
             cz = (rows.wr_z if wrist else rows.sh_z)[:, :, [m]]
-            ev = _evaluate(tri, cy, cz, c[:, None], s[:, None])
-            ang, _, valid = _triple_angles(tri, ev, q_start[:, 4:] if wrist else q_start[:, :3])
-            parts.append([ang[b, 0] for b in (0, 1) if valid[b, 0]])
+            ev = _evaluate(tri, cy, cz, c, s)
+            ang, _, dec = _triple_angles(tri, ev, q_start[:, 4:] if wrist else q_start[:, :3])
+            parts.append([(b, ang[b, 0], dec[b, 0]) for b in (0, 1)])
         if R is None:
-            parts.append([setup.q_wrist[0]])
-        for i, qs in enumerate(parts[0]):
-            for j, qw in enumerate(parts[1]):
-                q = np.concatenate([qs, [rows.q4[m]], qw])
-                out.append(Branch(q, chain.within_limits(q), int(rows.full[m] % 2), i, j))
+            parts.append([(0, np.broadcast_to(setup.q_wrist[0], (psi.size, 3)), True)])
+        for i, qs, ds in parts[0]:
+            for j, qw, dw in parts[1]:
+                q = np.empty((psi.size, 7))
+                q[:, :3], q[:, 3], q[:, 4:] = qs, rows.q4[m], qw
+                valid = np.all((q >= lo) & (q <= hi), axis=1)
+                ok = np.broadcast_to(ds & dw, (psi.size,))
+                for k in np.flatnonzero(ok):
+                    out.append(
+                        Branch(q[k], bool(valid[k]), int(rows.full[m] % 2), i, j, float(psi[k]))
+                    )
     return out
 
 
@@ -1094,7 +1122,7 @@ def swivel_intervals(
                 shift = TWO_PI * math.floor((run[0] + math.pi) / TWO_PI)
                 out.append(SwivelInterval(elbow, q4, float(run[0] - shift), float(run[1] - shift)))
                 run = None
-    return out
+    return sorted(out, key=lambda iv: (iv.elbow, iv.start))
 
 
 # ------------------------------------------------------------------------------ the solver
@@ -1219,6 +1247,7 @@ class _ScalarTriple:
         self.u1, self.u3 = _tup(u1), _tup(u3)
         self.dd, self.invK = tri.dd, 1.0 / tri.K
         self.cb, self.sb = tri.cb, tri.sb
+        self.ortho = tri.ortho
         d12, d23 = float(u1 @ u2), float(u2 @ u3)
         self.v, self.b = tri.v, tri.b
         self.in1, self.in2, self.in3 = (_sector(tri, j) for j in range(3))
@@ -1247,15 +1276,15 @@ class _ScalarTriple:
         """Some branch of the joint inside its ranges at swivel ``(c, s)``."""
         y10, y1c, y1s, y20, y2c, y2s, c0, cc, cs, z10, z1c, z1s, z20, z2c, z2s = k
         C = c0 + cc * c + cs * s
+        y1 = y10 + y1c * c + y1s * s
+        y2 = y20 + y2c * c + y2s * s
         cd = (C - self.dd) * self.invK
         if cd > 1.0 or cd < -1.0:
             if abs(cd) > 1.0 + 1e-12:
                 return False
             cd = 1.0 if cd > 0 else -1.0
-        sd = math.sqrt(1.0 - cd * cd)
+        sd = math.sqrt(y1 * y1 + y2 * y2) if self.ortho else math.sqrt(1.0 - cd * cd)
         cb, sb = self.cb, self.sb
-        y1 = y10 + y1c * c + y1s * s
-        y2 = y20 + y2c * c + y2s * s
         z1 = z10 + z1c * c + z1s * s
         z2 = z20 + z2c * c + z2s * s
         V01, Va1, Vb1, V02, Va2, Vb2 = self.v
@@ -1282,9 +1311,9 @@ class _ScalarTriple:
         if 1.0 - C * C < _GIMBAL:
             raise _Fallback
         cd = min(max((C - self.dd) * self.invK, -1.0), 1.0)
-        sd = math.sqrt(1.0 - cd * cd)
         y1 = y10 + y1c * c + y1s * s
         y2 = y20 + y2c * c + y2s * s
+        sd = math.sqrt(y1 * y1 + y2 * y2) if self.ortho else math.sqrt(1.0 - cd * cd)
         z1 = z10 + z1c * c + z1s * s
         z2 = z20 + z2c * c + z2s * s
         V01, Va1, Vb1, V02, Va2, Vb2 = self.v
