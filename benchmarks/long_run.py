@@ -1,10 +1,12 @@
 """A long tracking run: a target moves on a path that leaves the reachable workspace and
 comes back; every step is solved warm-started from the previous one.
 
-Reports: steps, NaN count, joint-range violations, the worst error while the target is
-reachable, time per step (median, p95) and memory: the process's peak resident set after
-warm-up (1000 steps) and at the end, and with ``--heap`` the Python heap traced by
-tracemalloc (which slows every step several times over; times are then not comparable).
+Reports: steps, NaN count, joint-range violations, the steps whose target lies within
+5 cm of the arm's reach (some of those still lie outside the joint ranges) and how many
+of them were missed by more than 1 mm, the worst error among them, time per step
+(median, p95) and memory: the process's peak resident set after warm-up (1000 steps)
+and at the end, and with ``--heap`` the Python heap traced by tracemalloc (which slows
+every step several times over; times are then not comparable).
 
     .venv/bin/python benchmarks/long_run.py --steps 100000 --solver dls
 """
@@ -43,11 +45,11 @@ def rss_mib() -> float:
 
 def run(steps: int, solver_name: str, heap: bool = False) -> dict:
     chain = Chain()
-    solver = make_solver(solver_name, restarts=0, max_iterations=30)
+    solver = make_solver(solver_name)
     shoulder = np.array([0.0, -0.19, 1.40])
     reach = make_solver("two_link").shell(chain).r_max
     times = np.empty(steps)
-    nan = violations = 0
+    nan = violations = misses = reachable = 0
     worst_reachable = 0.0
     q = chain.q_home.copy()
     if heap:
@@ -62,6 +64,8 @@ def run(steps: int, solver_name: str, heap: bool = False) -> dict:
         nan += not np.all(np.isfinite(q))
         violations += not chain.within_limits(q)
         if np.linalg.norm(target - shoulder) < reach - 0.05:
+            reachable += 1
+            misses += res.position_error >= 1e-3
             worst_reachable = max(worst_reachable, res.position_error)
         if i == min(1000, steps - 1):
             heap_warm = tracemalloc.get_traced_memory()[0] / 1024.0 if heap else math.nan
@@ -75,6 +79,8 @@ def run(steps: int, solver_name: str, heap: bool = False) -> dict:
         "solver": solver_name,
         "nan": nan,
         "limit_violations": violations,
+        "reachable_steps": reachable,
+        "reachable_misses_over_1mm": misses,
         "worst_reachable_error_m": worst_reachable,
         "median_ms": float(np.median(times) * 1e3),
         "p95_ms": float(np.percentile(times, 95) * 1e3),
