@@ -225,7 +225,7 @@ def test_look_at_rotation_degenerate_up():
 
 def test_solver_options_are_checked():
     """Unknown options, wrong types, and out-of-range values name the option."""
-    with pytest.raises(SolverError, match="solver 'nope' unknown; solvers: ccd, dls"):
+    with pytest.raises(SolverError, match="solver 'nope' unknown; solvers: ccd, closed_form, dls"):
         make_solver("nope")
     with pytest.raises(SolverError, match="option 'damp' unknown for solver 'dls'; options: "):
         make_solver("dls", damp=1)
