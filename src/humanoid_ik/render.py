@@ -18,6 +18,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -191,7 +192,9 @@ def select_backend() -> Backend:
 def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     backend = select_backend()
     try:
-        return mujoco.Renderer(model, height, width)
+        with warnings.catch_warnings():  # glfw warns before it raises; the error says it all
+            warnings.simplefilter("ignore")
+            return mujoco.Renderer(model, height, width)
     except Exception as exc:  # the GL bindings raise many types
         note = f" ({backend.note})" if backend.note else ""
         raise RenderError(

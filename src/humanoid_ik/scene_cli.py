@@ -74,7 +74,7 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from humanoid_ik.render import check_output_dir, render_scene
+    from humanoid_ik.render import check_output_dir, render_scene, select_backend
     from humanoid_ik.scenes import check_scene, load_scene
 
     scene = load_scene(args.scene)
@@ -102,6 +102,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
     check_scene(scene)
     out = Path(args.out) if args.out else Path("renders") / scene.name
     check_output_dir(out)
+    backend = select_backend()
+    if backend.note:
+        print(f"humanoid-ik: note: {backend.note}", file=sys.stderr)
 
     bar = None
     progress = None
@@ -118,8 +121,6 @@ def _cmd_render(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
-    if result.backend.note:
-        print(f"humanoid-ik: note: {result.backend.note}", file=sys.stderr)
     m = result.metrics
     loop = sum(result.frame_times)
     fps = result.frames / loop if loop > 0 else 0.0

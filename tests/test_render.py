@@ -1,0 +1,383 @@
+"""Headless rendering with MuJoCo's Renderer on Mesa's EGL: every bundled scene is filmed
+for a few small frames; the video decodes, frames change, the markers sit where the
+targets project, and the outputs are complete."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import imageio_ffmpeg
+import mujoco
+import numpy as np
+import pytest
+from PIL import Image
+
+from humanoid_ik import render as render_mod
+from humanoid_ik.cli import main
+from humanoid_ik.errors import RenderError
+from humanoid_ik.render import (
+    MARKER_RADIUS,
+    FrameRenderer,
+    check_output_dir,
+    project,
+    render_scene,
+    select_backend,
+)
+from humanoid_ik.runner import SceneRunner
+from humanoid_ik.scenes import bundled_scenes, load_scene
+
+W, H, N = 160, 120, 6
+REPO = Path(__file__).resolve().parents[1]
+
+
+def short(name: str, frames: int = N, width: int = W, height: int = H):
+    """A bundled scene cut to `frames` frames spread over its whole duration, with every
+    frame saved as PNG."""
+    sc = load_scene(name)
+    fps = frames / sc.duration
+    sc = sc.with_overrides(fps=fps, frames=frames, width=width, height=height)
+    times = tuple(i / fps for i in range(frames))
+    return replace(sc, render=replace(sc.render, snapshots=times))
+
+
+def decode(path: Path) -> list[np.ndarray]:
+    gen = imageio_ffmpeg.read_frames(str(path))
+    meta = next(gen)
+    w, h = meta["size"]
+    return [np.frombuffer(f, dtype=np.uint8).reshape(h, w, 3) for f in gen]
+
+
+def colour_class(px: np.ndarray) -> str:
+    """'green', 'red', 'orange' or 'other' for an RGB pixel."""
+    r, g, b = (int(v) for v in px)
+    if g >= 150 and g - r >= 50 and g - b >= 50:
+        return "green"
+    if r >= 150 and r - g >= 80 and r - b >= 80:
+        return "red"
+    if r >= 150 and r - b >= 80 and g - b >= 30 and r - g >= 30:
+        return "orange"
+    return "other"
+
+
+def expected_class(sample) -> str:
+    if sample.on_target:
+        return "green"
+    return "orange" if sample.reachable else "red"
+
+
+def visible(model, data, cam: int, point: np.ndarray) -> bool:
+    """No visible model geom lies between the camera and the marker's front surface."""
+    c = data.cam_xpos[cam]
+    v = point - c
+    dist = float(np.linalg.norm(v))
+    gid = np.array([-1], dtype=np.int32)
+    hit = mujoco.mj_ray(
+        model, data, c, v / dist, np.array([1, 1, 1, 0, 0, 0], np.uint8), 1, -1, gid
+    )
+    return hit < 0 or hit > dist - MARKER_RADIUS
+
+
+@pytest.fixture(scope="module")
+def renders(tmp_path_factory):
+    """Every bundled scene, 6 frames at 160x120 spread over its duration, MP4 + PNGs."""
+    root = tmp_path_factory.mktemp("renders")
+    out = {}
+    for p in bundled_scenes():
+        sc = short(p.stem)
+        out[p.stem] = (sc, render_scene(sc, root / p.stem, plot=False))
+    return out
+
+
+SCENES = [p.stem for p in bundled_scenes()]
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_video_decodes_to_the_frame_count(renders, name):
+    """The MP4 decodes to exactly the frames rendered, at the rendered size."""
+    sc, out = renders[name]
+    assert out.frames == N and not out.interrupted
+    frames = decode(out.video)
+    assert len(frames) == N
+    assert frames[0].shape == (H, W, 3)
+    n, _ = imageio_ffmpeg.count_frames_and_secs(str(out.video))
+    assert n == N
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_frames_change_where_the_arm_moves(renders, name):
+    """Frames change over time (the arm and the target move): some decoded frame differs
+    from the first by a mean of more than 1 grey level, most consecutive frames differ,
+    and the PNGs differ likewise."""
+    sc, out = renders[name]
+    frames = [f.astype(int) for f in decode(out.video)]
+    far = max(np.abs(f - frames[0]).mean() for f in frames[1:])
+    assert far > 1.0, far
+    steps = [np.abs(b - a).mean() for a, b in zip(frames, frames[1:], strict=False)]
+    assert sum(d > 0.2 for d in steps) >= len(steps) // 2 + 1, steps
+    pngs = [np.array(Image.open(p)).astype(int) for p in out.snapshots]
+    assert max(np.abs(p - pngs[0]).mean() for p in pngs[1:]) > 1.0
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_marker_shows_where_the_target_projects(renders, name):
+    """In every saved frame, where no body part hides it, the pixels around the projection
+    of each target (camera pose and fovy) have the marker's colour for its state: green on
+    target, orange tracking, red out of reach."""
+    sc, out = renders[name]
+    run = SceneRunner(sc)
+    cam = mujoco.mj_name2id(run.model, mujoco.mjtObj.mjOBJ_CAMERA, sc.render.camera)
+    checked = 0
+    for i, png in enumerate(out.snapshots):
+        img = np.array(Image.open(png))
+        assert img.shape == (H, W, 3)
+        rec = run.step(i)
+        assert png.name == f"frame_{i:04d}.png"
+        for s in rec.samples:
+            u, v, depth = project(run.model, run.data, sc.render.camera, s.target, W, H)
+            col, row = int(math.floor(u)), int(math.floor(v))
+            if not (1 <= col < W - 1 and 1 <= row < H - 1) or depth <= 0:
+                continue
+            if not visible(run.model, run.data, cam, s.target):
+                continue
+            window = img[row - 1 : row + 2, col - 1 : col + 2].reshape(-1, 3)
+            classes = [colour_class(px) for px in window]
+            want = expected_class(s)
+            assert classes.count(want) >= 3, (name, i, s.effector, want, window.tolist())
+            checked += 1
+    if name in ("gaze", "out_of_reach"):
+        assert checked >= N - 1  # these targets are never behind the humanoid
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_metrics_put_the_hand_on_reachable_targets(renders, name):
+    """The rendered run's metrics: every reachable target is reached within 1 mm."""
+    sc, out = renders[name]
+    m = out.metrics
+    assert len(m) == N
+    for k in range(len(sc.effectors)):
+        reach = m.series(k, "reachable").astype(bool)
+        err = m.series(k, "position_error")
+        assert err[reach].max() < 1e-3, (name, k, err[reach].max())
+
+
+def test_outputs_are_complete_and_atomic(renders):
+    """The folder holds the MP4, one PNG per frame, the contact sheet, metrics CSV and JSON,
+    and no temporary file."""
+    sc, out = renders["circle"]
+    names = sorted(p.name for p in out.folder.iterdir())
+    assert names == sorted(
+        ["circle.mp4", "contact_sheet.png", "metrics.csv", "metrics.json"]
+        + [f"frame_{i:04d}.png" for i in range(N)]
+    )
+    assert all(p.exists() for p in out.files())
+    sheet = Image.open(out.contact_sheet)
+    assert sheet.size == (4 * (W + 4) + 4, 2 * (H + 4) + 4)  # 6 tiles: 4 columns, 2 rows
+    assert out.backend.name == "egl"
+    assert len(out.frame_times) == N and out.total_time >= sum(out.frame_times)
+
+
+def test_project_matches_the_pinhole_model():
+    """A point on the camera's axis projects to the image centre; one offset by d along the
+    camera's x at depth z lands f d / z pixels to the right, f = (H/2) / tan(fovy/2)."""
+    m = mujoco.MjModel.from_xml_path(str(REPO / "models" / "humanoid" / "scene.xml"))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    cid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "front")
+    c, R = d.cam_xpos[cid], d.cam_xmat[cid].reshape(3, 3)
+    u, v, depth = project(m, d, "front", c - 2.0 * R[:, 2], 640, 480)
+    assert (u, v, depth) == pytest.approx((320.0, 240.0, 2.0))
+    f = 240.0 / math.tan(math.radians(m.cam_fovy[cid]) / 2)
+    u, v, _ = project(m, d, "front", c - 2.0 * R[:, 2] + 0.1 * R[:, 0] + 0.05 * R[:, 1], 640, 480)
+    assert u == pytest.approx(320.0 + f * 0.1 / 2.0) and v == pytest.approx(240 - f * 0.05 / 2)
+    with pytest.raises(RenderError, match=r"camera 'left' not in model; cameras: front, side"):
+        project(m, d, "left", c, 640, 480)
+
+
+def test_unknown_camera_in_frame_renderer():
+    """FrameRenderer names the valid cameras for an unknown one."""
+    m = mujoco.MjModel.from_xml_path(str(REPO / "models" / "humanoid" / "scene.xml"))
+    with pytest.raises(RenderError, match=r"cameras: front, side, top, three_quarter"):
+        FrameRenderer(m, 64, 48, "behind", 0)
+
+
+def test_gif_plot_and_interrupt(tmp_path):
+    """A GIF holds every frame at the render size; the metrics plot is 800x500; Ctrl-C
+    after frame 3 keeps a valid 3-frame video and 3 frames of metrics."""
+    sc = short("both_hands", frames=4, width=64, height=48)
+    sc = replace(sc, render=replace(sc.render, gif=True))
+    out = render_scene(sc, tmp_path / "a")
+    gif = Image.open(out.gif)
+    assert gif.n_frames == 4 and gif.size == (64, 48)
+    assert Image.open(out.plot).size == (800, 500)
+
+    def stop(done, total):
+        if done == 3:
+            raise KeyboardInterrupt
+
+    cut = render_scene(
+        load_scene("circle").with_overrides(width=64, height=48),
+        tmp_path / "b",
+        plot=False,
+        progress=stop,
+    )
+    assert cut.interrupted and cut.frames == 3 and len(cut.metrics) == 3
+    assert len(decode(cut.video)) == 3
+    assert sum(1 for _ in open(cut.csv)) == 1 + 3
+    assert not [p for p in cut.folder.iterdir() if ".tmp" in p.name]
+
+
+# ----------------------------------------------------------------------------- CLI
+def test_render_command(tmp_path, capsys):
+    """`humanoid-ik render` writes the outputs and prints a summary and the files."""
+    out = tmp_path / "o"
+    code = main(
+        [
+            "render",
+            "gaze",
+            "--out",
+            str(out),
+            "--frames",
+            "3",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--camera",
+            "side",
+            "--solver",
+            "dls",
+            "--gif",
+        ]
+    )
+    assert code == 0
+    text = capsys.readouterr().out
+    assert text.startswith("gaze: 3 frame(s) 64x48 camera side")
+    assert "gaze_site -> fly (look_at): reachable 3/3" in text
+    for name in ("gaze.mp4", "gaze.gif", "metrics.csv", "metrics.json", "metrics.png"):
+        assert (out / name).is_file() and f"wrote {out / name}" in text
+    assert len(decode(out / "gaze.mp4")) == 3
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--camera", "left"], "--camera 'left' not in model; cameras: front, side, top"),
+        (["--solver", "magic"], "--solver 'magic' unknown; solvers: two_link, ccd"),
+        (["--width", "63"], "argument --width: expected an even integer >= 16, got '63'"),
+        (["--height", "x"], "argument --height: expected an even integer >= 16, got 'x'"),
+        (["--frames", "0"], "argument --frames: expected an integer >= 1, got '0'"),
+        (["--frames", "two"], "argument --frames: expected an integer >= 1, got 'two'"),
+        (["--fps", "-3"], "argument --fps: expected a number > 0 and <= 1000, got '-3'"),
+        (["--fps", "fast"], "argument --fps: expected a number > 0, got 'fast'"),
+        (["--width", "4000"], "render.width: expected at most 1920"),
+    ],
+)
+def test_render_command_bad_input(tmp_path, capsys, args, message):
+    """Bad input: one line on stderr naming the value and the valid choices, exit 2, and
+    nothing rendered."""
+    out = tmp_path / "o"
+    assert main(["render", "circle", "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_render_command_unknown_scene(capsys):
+    """An unknown scene lists the bundled ones."""
+    assert main(["render", "nowhere"]) == 2
+    assert "nowhere: no such scene file; expected a path or a bundled scene: both_hands" in (
+        capsys.readouterr().err
+    )
+
+
+def test_output_folder_that_cannot_be_created(tmp_path, capsys):
+    """An output folder under a file fails before rendering, in one line."""
+    (tmp_path / "file").write_text("x")
+    assert main(["render", "circle", "--out", str(tmp_path / "file" / "sub")]) == 2
+    assert "cannot create output folder" in capsys.readouterr().err
+    with pytest.raises(RenderError, match=r"cannot create output folder"):
+        check_output_dir(tmp_path / "file")
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux /proc")
+def test_output_folder_not_writable():
+    """A folder that exists but takes no files (here /proc/self) is refused before rendering."""
+    with pytest.raises(RenderError, match=r"output folder '/proc/self' is not writable"):
+        check_output_dir("/proc/self")
+
+
+# ----------------------------------------------------------------------------- backends
+def test_backend_from_mujoco_gl(monkeypatch):
+    """MUJOCO_GL chosen by the user is used; 'disable' and unknown names are errors."""
+    assert select_backend().name == "egl"  # the tests set MUJOCO_GL=egl (conftest)
+    monkeypatch.setattr(render_mod, "_BACKEND", None)
+    monkeypatch.setenv("MUJOCO_GL", "disable")
+    with pytest.raises(RenderError, match=r"MUJOCO_GL='disable' turns rendering off"):
+        select_backend()
+    monkeypatch.setenv("MUJOCO_GL", "vulkan")
+    with pytest.raises(RenderError, match=r"MUJOCO_GL='vulkan' is not a backend; expected"):
+        select_backend()
+
+
+def _cli(tmp_path: Path, env_update: dict[str, str], unset=("MUJOCO_GL",)):
+    env = {k: v for k, v in os.environ.items() if k not in (*unset, "PYOPENGL_PLATFORM")}
+    env.update(env_update)
+    out = tmp_path / "o"
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "humanoid_ik",
+            "render",
+            "circle",
+            "--frames",
+            "2",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--no-video",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        check=False,
+    )
+
+
+def test_default_backend_is_egl(tmp_path):
+    """Without MUJOCO_GL the command renders with EGL (no GPU, no display needed)."""
+    proc = _cli(tmp_path, {}, unset=("MUJOCO_GL", "DISPLAY"))
+    assert proc.returncode == 0, proc.stderr
+    assert "frames/s (egl)" in proc.stdout and "note" not in proc.stderr
+
+
+def test_broken_egl_falls_back_or_says_what_to_install(tmp_path):
+    """With EGL broken (no vendor library), the command falls back to OSMesa with a note, or
+    when OSMesa is missing too fails in one line naming the packages to install."""
+    proc = _cli(tmp_path, {"__EGL_VENDOR_LIBRARY_FILENAMES": str(tmp_path / "none.json")})
+    if proc.returncode == 0:
+        assert "frames/s (osmesa)" in proc.stdout
+        assert "note: EGL does not work here" in proc.stderr
+        assert "rendering with OSMesa" in proc.stderr
+    else:
+        assert proc.returncode == 2
+        assert proc.stderr.count("\n") == 1
+        assert "libegl1 libegl-mesa0 libgl1-mesa-dri" in proc.stderr
+        assert "libosmesa6" in proc.stderr
+
+
+def test_backend_without_display_fails_in_one_line(tmp_path):
+    """MUJOCO_GL=glfw on a machine without a display fails in one line with the hint."""
+    proc = _cli(tmp_path, {"MUJOCO_GL": "glfw"}, unset=("MUJOCO_GL", "DISPLAY", "WAYLAND_DISPLAY"))
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1
+    assert "MUJOCO_GL=glfw" in proc.stderr and "libegl1" in proc.stderr
