@@ -345,11 +345,18 @@ def _unit(v: NDArray, fallback: NDArray, eps: float = 1e-12) -> NDArray[np.float
 
 
 def _perp_unit(v: NDArray, n: NDArray, fallbacks: list[NDArray]) -> NDArray[np.float64]:
-    """Unit component of ``v`` normal to unit ``n`` (rows); fallbacks where it vanishes."""
+    """Unit component of ``v`` normal to unit ``n`` (rows); fallbacks where it vanishes.
+
+    A short component is projected twice: once normalised it is normal to ``n`` to
+    rounding, which keeps the frames built from it orthonormal.
+    """
     out = v - np.sum(v * n, axis=-1, keepdims=True) * n
     norm = np.linalg.norm(out, axis=-1, keepdims=True)
     bad = norm[..., 0] < 1e-9
     out = out / np.where(bad[..., None], 1.0, norm)
+    out = out - np.sum(out * n, axis=-1, keepdims=True) * n
+    norm = np.linalg.norm(out, axis=-1, keepdims=True)
+    out = out / np.where(norm > 0.0, norm, 1.0)
     for fb in fallbacks:
         if not np.any(bad):
             break
@@ -1427,6 +1434,14 @@ def _rot(u, c: float, s: float, v):
     )
 
 
+def _reproject(x: float, y: float, z: float, n) -> tuple[float, float, float]:
+    """Unit ``(x, y, z)`` made normal to unit ``n`` once more (as in :func:`_perp_unit`)."""
+    d = x * n[0] + y * n[1] + z * n[2]
+    x, y, z = x - d * n[0], y - d * n[1], z - d * n[2]
+    inv = 1.0 / math.sqrt(x * x + y * y + z * z)
+    return x * inv, y * inv, z * inv
+
+
 def _solve_one(
     F: _Scalar, position, rotation, q0: list[float], swivel: float | None
 ) -> tuple[list[float], float]:
@@ -1460,7 +1475,7 @@ def _solve_one(
     rn = math.sqrt(rx * rx + ry * ry + rz * rz)
     if rn < 1e-9:
         raise _Fallback
-    r = (rx / rn, ry / rn, rz / rn)
+    r = _reproject(rx / rn, ry / rn, rz / rn, n)
     k = (n[1] * r[2] - n[2] * r[1], n[2] * r[0] - n[0] * r[2], n[0] * r[1] - n[1] * r[0])
     if swivel is None:
         e = F.elbow_q0(q0)
@@ -1508,7 +1523,7 @@ def _solve_one(
         bn = math.sqrt(bx * bx + by * by + bz * bz)
         if bn < 1e-9:
             raise _Fallback
-        b = (bx / bn, by / bn, bz / bn)
+        b = _reproject(bx / bn, by / bn, bz / bn, a)
         cv = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
         # shoulder: y = n al + r (be c - ga s) + k (ga c + be s); z = a m1 + b (..) + cv (..)
         al, be, ga = _dot(a, sh.u3), _dot(b, sh.u3), _dot(cv, sh.u3)
