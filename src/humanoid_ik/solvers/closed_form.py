@@ -1181,15 +1181,10 @@ class ClosedForm(Solver):
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
         ctx = _context(chain)
         fast = ctx.scalar
-        if fast is not None and target.rotation is not None:
+        if fast is not None:
+            rot = None if target.rotation is None else target.rotation.tolist()
             try:
-                q1, _ = _solve_one(
-                    fast,
-                    target.position.tolist(),
-                    target.rotation.tolist(),
-                    q0.tolist(),
-                    self.swivel,
-                )
+                q1, _ = _solve_one(fast, target.position.tolist(), rot, q0.tolist(), self.swivel)
                 return self._result(chain, target, np.array(q1), 1)
             except _Fallback:
                 pass
@@ -1386,14 +1381,11 @@ class _Scalar:
         g = ctx.geo
         self.S = _tup(ctx.S)
         self.d = _tup(g.hand_offset)
-        l1, l2, h, alpha = ctx.shell
-        self.L2 = float(l1 * l1 + l2[0] ** 2 + h[0] ** 2)
-        self.den = float(2.0 * l1 * l2[0])
-        self.alpha = float(alpha[0])
+        self.ctx = ctx
         self.elo, self.ehi, self.ecen = ctx.elbow_lo, ctx.elbow_hi, ctx.elbow_center
-        w = ctx.W0 - ctx.Ea
-        par = (w @ ctx.ue) * ctx.ue
-        self.Pc, self.Pa, self.Pb = _tup(ctx.Ea + par), _tup(w - par), _tup(np.cross(ctx.ue, w))
+        self.wrist_point = self._forearm(ctx.W0)
+        self.last_wrist: tuple | None = None
+        self.last_point = self.wrist_point
         self.e = _tup(ctx.Ea - ctx.S)
         self.ue = _tup(ctx.ue)
         self.down = _tup(g.down)
@@ -1409,6 +1401,33 @@ class _Scalar:
         self.wr_f1e, self.wr_f2e = _tup(R0.T @ wr.f1), _tup(R0.T @ wr.f2)
         self.last_q0: tuple | None = None
         self.last_e: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def _forearm(self, P: NDArray) -> tuple:
+        """Law-of-cosines constants and ``P(q4) = Pc + cos q4 Pa + sin q4 Pb`` for the
+        forearm point ``P`` (at zero): ``(l1^2 + l2^2 + h^2, 2 l1 l2, alpha, Pc, Pa, Pb)``."""
+        ctx = self.ctx
+        l1, l2, h, alpha = _shell(ctx.S, ctx.Ea, ctx.ue, P[None])
+        w = P - ctx.Ea
+        par = (w @ ctx.ue) * ctx.ue
+        return (
+            float(l1 * l1 + l2[0] ** 2 + h[0] ** 2),
+            float(2.0 * l1 * l2[0]),
+            float(alpha[0]),
+            _tup(ctx.Ea + par),
+            _tup(w - par),
+            _tup(np.cross(ctx.ue, w)),
+        )
+
+    def hand_point(self, qw: list[float]) -> tuple:
+        """:meth:`_forearm` of the end effector with the wrist at ``qw`` (cached)."""
+        key = tuple(qw)
+        if key != self.last_wrist:
+            g = self.ctx.geo
+            v = g.p_ee0 - self.ctx.W0
+            for k in (2, 1, 0):
+                v = _rodrigues(g.wrist_axes[k], qw[k]) @ v
+            self.last_wrist, self.last_point = key, self._forearm(self.ctx.W0 + v)
+        return self.last_point
 
     def elbow_q0(self, q0: list[float]) -> tuple[float, float, float]:
         """``R_sh(q0) (E - S)``: the starting elbow relative to the shoulder (cached)."""
@@ -1445,25 +1464,35 @@ def _reproject(x: float, y: float, z: float, n) -> tuple[float, float, float]:
 def _solve_one(
     F: _Scalar, position, rotation, q0: list[float], swivel: float | None
 ) -> tuple[list[float], float]:
-    """Joint values and swivel for one feasible pose target (raises ``_Fallback`` otherwise)."""
+    """Joint values and swivel for one feasible target (raises ``_Fallback`` otherwise).
+
+    ``rotation`` is the target rotation as nested lists, or ``None`` for a position
+    target (the wrist keeps ``q0``'s angles).
+    """
     px, py, pz = position
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation
-    d0, d1, d2 = F.d
     Sx, Sy, Sz = F.S
-    tx = px - (r00 * d0 + r01 * d1 + r02 * d2) - Sx
-    ty = py - (r10 * d0 + r11 * d1 + r12 * d2) - Sy
-    tz = pz - (r20 * d0 + r21 * d1 + r22 * d2) - Sz
+    pose = rotation is not None
+    if pose:
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation
+        d0, d1, d2 = F.d
+        tx = px - (r00 * d0 + r01 * d1 + r02 * d2) - Sx
+        ty = py - (r10 * d0 + r11 * d1 + r12 * d2) - Sy
+        tz = pz - (r20 * d0 + r21 * d1 + r22 * d2) - Sz
+        L2, den, alpha, Pc, Pa, Pb = F.wrist_point
+    else:
+        tx, ty, tz = px - Sx, py - Sy, pz - Sz
+        L2, den, alpha, Pc, Pa, Pb = F.hand_point(q0[4:])
     r2 = tx * tx + ty * ty + tz * tz
     if r2 < 1e-18:
         raise _Fallback
-    cos_e = (F.L2 - r2) / F.den
+    cos_e = (L2 - r2) / den
     if cos_e > 1.0 or cos_e < -1.0:
         raise _Fallback
     inv_r = 1.0 / math.sqrt(r2)
     n = (tx * inv_r, ty * inv_r, tz * inv_r)
     phi = math.acos(cos_e)
     elbows = []
-    for q4 in (F.alpha + phi, F.alpha - phi) if 1e-12 < phi < math.pi - 1e-12 else (F.alpha + phi,):
+    for q4 in (alpha + phi, alpha - phi) if 1e-12 < phi < math.pi - 1e-12 else (alpha + phi,):
         q4 += TWO_PI * round((F.ecen - q4) / TWO_PI)
         if F.elo - RANGE_TOL <= q4 <= F.ehi + RANGE_TOL:
             elbows.append(q4)
@@ -1489,33 +1518,16 @@ def _solve_one(
     ne1, re1, ke1 = _dot(n, F.sh_e1), _dot(r, F.sh_e1), _dot(k, F.sh_e1)
     ne2, re2, ke2 = _dot(n, F.sh_e2), _dot(r, F.sh_e2), _dot(k, F.sh_e2)
     m1, m2, m3 = _dot(n, F.sh_u1), _dot(r, F.sh_u1), _dot(k, F.sh_u1)
-    u3e, f1e, f2e = F.wr_u3e, F.wr_f1e, F.wr_f2e
-    gw = (
-        r00 * u3e[0] + r01 * u3e[1] + r02 * u3e[2],
-        r10 * u3e[0] + r11 * u3e[1] + r12 * u3e[2],
-        r20 * u3e[0] + r21 * u3e[1] + r22 * u3e[2],
-    )
-    G1, G2, G3 = _dot(gw, n), _dot(gw, r), _dot(gw, k)
-    F1t = (
-        r00 * f1e[0] + r01 * f1e[1] + r02 * f1e[2],
-        r10 * f1e[0] + r11 * f1e[1] + r12 * f1e[2],
-        r20 * f1e[0] + r21 * f1e[1] + r22 * f1e[2],
-    )
-    F2t = (
-        r00 * f2e[0] + r01 * f2e[1] + r02 * f2e[2],
-        r10 * f2e[0] + r11 * f2e[1] + r12 * f2e[2],
-        r20 * f2e[0] + r21 * f2e[1] + r22 * f2e[2],
-    )
-    nF1, rF1, kF1 = _dot(n, F1t), _dot(r, F1t), _dot(k, F1t)
-    nF2, rF2, kF2 = _dot(n, F2t), _dot(r, F2t), _dot(k, F2t)
+    if pose:
+        hand = _hand_frames(F, rotation, n, r, k)
     Sx, Sy, Sz = F.S
     ex, ey, ez = F.e
     best = None  # (distance key, elbow key, q4, kshoulder, kwrist, c, s)
     for q4 in elbows:
         ce, se = math.cos(q4), math.sin(q4)
-        ax = F.Pc[0] + ce * F.Pa[0] + se * F.Pb[0] - Sx
-        ay = F.Pc[1] + ce * F.Pa[1] + se * F.Pb[1] - Sy
-        az = F.Pc[2] + ce * F.Pa[2] + se * F.Pb[2] - Sz
+        ax = Pc[0] + ce * Pa[0] + se * Pb[0] - Sx
+        ay = Pc[1] + ce * Pa[1] + se * Pb[1] - Sy
+        az = Pc[2] + ce * Pa[2] + se * Pb[2] - Sz
         an = 1.0 / math.sqrt(ax * ax + ay * ay + az * az)
         a = (ax * an, ay * an, az * an)
         ea = ex * a[0] + ey * a[1] + ez * a[2]
@@ -1536,33 +1548,21 @@ def _solve_one(
             m1 * af1, m2 * bf1 + m3 * cf1, m3 * bf1 - m2 * cf1,
             m1 * af2, m2 * bf2 + m3 * cf2, m3 * bf2 - m2 * cf2,
         )  # fmt: skip
-        # wrist: R_el v for the wrist's reading vectors
-        E1 = _rot(F.ue, ce, se, F.wr_e1)
-        E2 = _rot(F.ue, ce, se, F.wr_e2)
-        Hv = _rot(F.ue, ce, se, F.wr_u1)
-        aE1, bE1, cE1 = _dot(a, E1), _dot(b, E1), _dot(cv, E1)
-        aE2, bE2, cE2 = _dot(a, E2), _dot(b, E2), _dot(cv, E2)
-        H1, H2, H3 = _dot(a, Hv), _dot(b, Hv), _dot(cv, Hv)
-        kwr = (
-            aE1 * G1, bE1 * G2 + cE1 * G3, bE1 * G3 - cE1 * G2,
-            aE2 * G1, bE2 * G2 + cE2 * G3, bE2 * G3 - cE2 * G2,
-            H1 * G1, H2 * G2 + H3 * G3, H2 * G3 - H3 * G2,
-            H1 * nF1, H2 * rF1 + H3 * kF1, H2 * kF1 - H3 * rF1,
-            H1 * nF2, H2 * rF2 + H3 * kF2, H2 * kF2 - H3 * rF2,
-        )  # fmt: skip
+        kwr = _wrist_coefficients(F, hand, ce, se, a, b, cv) if pose else None
         ekey = abs(q4 - q0[3])
-        if sh.feasible(ksh, cp, sp) and wr.feasible(kwr, cp, sp):
+        if sh.feasible(ksh, cp, sp) and (not pose or wr.feasible(kwr, cp, sp)):
             cand = (0.0, ekey, q4, ksh, kwr, cp, sp)
         else:
             found: list = []
             sh.roots(ksh, cp, sp, found)
-            wr.roots(kwr, cp, sp, found)
+            if pose:
+                wr.roots(kwr, cp, sp, found)
             found.sort()
             cand = None
             for dist, c, s in found:
                 if best is not None and dist > best[0] + 1e-12:
                     break
-                if sh.feasible(ksh, c, s) and wr.feasible(kwr, c, s):
+                if sh.feasible(ksh, c, s) and (not pose or wr.feasible(kwr, c, s)):
                     cand = (dist, ekey, q4, ksh, kwr, c, s)
                     break
         if cand is not None and (
@@ -1576,8 +1576,57 @@ def _solve_one(
     _, _, q4, ksh, kwr, c, s = best
     q = sh.angles(ksh, c, s, q0[:3])
     q.append(q4)
-    q += wr.angles(kwr, c, s, q0[4:])
+    q += wr.angles(kwr, c, s, q0[4:]) if pose else q0[4:]
     return q, math.atan2(s, c)
+
+
+def _hand_frames(F: _Scalar, rotation, n, r, k) -> tuple[float, ...]:
+    """The hand's wrist vectors in the target frame ``(n, r, k)``: ``g = R_t R_ee0' u3`` and
+    ``R_t R_ee0' f1``, ``R_t R_ee0' f2`` (the wrist's reading vectors carried to the target)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation
+    u3e, f1e, f2e = F.wr_u3e, F.wr_f1e, F.wr_f2e
+    gw = (
+        r00 * u3e[0] + r01 * u3e[1] + r02 * u3e[2],
+        r10 * u3e[0] + r11 * u3e[1] + r12 * u3e[2],
+        r20 * u3e[0] + r21 * u3e[1] + r22 * u3e[2],
+    )
+    G1, G2, G3 = _dot(gw, n), _dot(gw, r), _dot(gw, k)
+    F1t = (
+        r00 * f1e[0] + r01 * f1e[1] + r02 * f1e[2],
+        r10 * f1e[0] + r11 * f1e[1] + r12 * f1e[2],
+        r20 * f1e[0] + r21 * f1e[1] + r22 * f1e[2],
+    )
+    F2t = (
+        r00 * f2e[0] + r01 * f2e[1] + r02 * f2e[2],
+        r10 * f2e[0] + r11 * f2e[1] + r12 * f2e[2],
+        r20 * f2e[0] + r21 * f2e[1] + r22 * f2e[2],
+    )
+    nF1, rF1, kF1 = _dot(n, F1t), _dot(r, F1t), _dot(k, F1t)
+    nF2, rF2, kF2 = _dot(n, F2t), _dot(r, F2t), _dot(k, F2t)
+    return (G1, G2, G3, nF1, rF1, kF1, nF2, rF2, kF2)
+
+
+def _wrist_coefficients(F: _Scalar, hand, ce: float, se: float, a, b, cv) -> tuple[float, ...]:
+    """The wrist's 15 swivel-linear coefficients for elbow ``(cos, sin) = (ce, se)``.
+
+    ``y_w = R_el' (a G1 + b (G2 c + G3 s) + cv (G3 c - G2 s))`` and
+    ``z_w = R_t R_ee0'``-image of ``n H1 + r (H2 c - H3 s) + k (H3 c + H2 s)``, read in the
+    wrist's frames (``H = (a, b, cv) . R_el u1``).
+    """
+    G1, G2, G3, nF1, rF1, kF1, nF2, rF2, kF2 = hand
+    E1 = _rot(F.ue, ce, se, F.wr_e1)
+    E2 = _rot(F.ue, ce, se, F.wr_e2)
+    Hv = _rot(F.ue, ce, se, F.wr_u1)
+    aE1, bE1, cE1 = _dot(a, E1), _dot(b, E1), _dot(cv, E1)
+    aE2, bE2, cE2 = _dot(a, E2), _dot(b, E2), _dot(cv, E2)
+    H1, H2, H3 = _dot(a, Hv), _dot(b, Hv), _dot(cv, Hv)
+    return (
+        aE1 * G1, bE1 * G2 + cE1 * G3, bE1 * G3 - cE1 * G2,
+        aE2 * G1, bE2 * G2 + cE2 * G3, bE2 * G3 - cE2 * G2,
+        H1 * G1, H2 * G2 + H3 * G3, H2 * G3 - H3 * G2,
+        H1 * nF1, H2 * rF1 + H3 * kF1, H2 * kF1 - H3 * rF1,
+        H1 * nF2, H2 * rF2 + H3 * kF2, H2 * kF2 - H3 * rF2,
+    )  # fmt: skip
 
 
 def swivel_angle(chain: Chain, q: ArrayLike) -> float:
