@@ -190,8 +190,6 @@ class _Context:
         self.shell = _shell(self.S, self.Ea, self.ue, self.W0[None])
         self.ke = _cross_matrix(self.ue)
         self.ke2 = self.ke @ self.ke
-        self.center = np.concatenate([self.sh.center, [self.elbow_center], self.wr.center])
-        self.limited = np.isfinite(self.lower) & np.isfinite(self.upper)
         self._scalar: _Scalar | None | bool = False
 
     @property
@@ -391,7 +389,7 @@ class _Setup(NamedTuple):
     inner: NDArray[np.bool_]  # (N,) the miss is inside the inner hole
     q_wrist: NDArray[np.float64] | None  # (N, 3) wrist angles for position-only targets
     n: NDArray[np.float64]  # (N, 3) unit shoulder-to-wrist direction
-    ref: NDArray[np.float64]  # (N, 3) swivel zero direction, normal to n
+    shell: tuple[NDArray, NDArray]  # (N,) inner and outer radius [m] of the reachable shell
     R_ref: NDArray[np.float64]  # (M, 3, 3) shoulder rotation at swivel 0
     R_t: NDArray[np.float64] | None  # (N, 3, 3) target rotations
     q4: NDArray[np.float64]  # (N, 2) both elbow branches [rad]
@@ -531,7 +529,8 @@ def _setup(
         cp[target],
         sp[target],
     )
-    return _Setup(rows, reach, inner, q_wrist, n, ref, R_ref, R_t, q4, usable, el_key)
+    shell = (np.broadcast_to(r_min, (N,)), np.broadcast_to(r_max, (N,)))
+    return _Setup(rows, reach, inner, q_wrist, n, shell, R_ref, R_t, q4, usable, el_key)
 
 
 def _take(rows: _Rows, idx: NDArray[np.int64]) -> _Rows:
@@ -1132,6 +1131,29 @@ def swivel_intervals(
     return sorted(out, key=lambda iv: (iv.elbow, iv.start))
 
 
+def swivel_angle(chain: Chain, q: ArrayLike) -> float:
+    """The swivel [rad] of posture ``q (7,)``: its elbow about its own shoulder-wrist line.
+
+    Solving the pose of ``q`` with this as the preferred swivel returns ``q``'s elbow
+    position (and ``q`` itself when its branches are the ones closest to the start).
+
+    Raises:
+        SolverError: the chain is not a spherical shoulder + elbow + spherical wrist.
+        TargetError: ``q`` is not 7 finite values.
+    """
+    ctx = _context(chain)
+    qq = chain.check_q(q)
+    sh = ctx.sh
+    e = (ctx.Ea - ctx.S)[None]
+    w = (ctx.Ea - ctx.S + _rodrigues(ctx.ue, float(qq[3])) @ (ctx.W0 - ctx.Ea))[None]
+    for k, u in ((2, sh.u3), (1, sh.u2), (0, sh.u1)):
+        c, s = np.cos(qq[k : k + 1]), np.sin(qq[k : k + 1])
+        e, w = _rotate(u, c, s, e), _rotate(u, c, s, w)
+    n = _unit(w, np.array([[1.0, 0.0, 0.0]]))
+    ref = _perp_unit(ctx.geo.down[None], n, [np.eye(3)[0], np.eye(3)[1]])
+    return float(np.arctan2(np.sum(e * np.cross(n, ref)), np.sum(e * ref)))
+
+
 # ------------------------------------------------------------------------------ the solver
 _REASONS: weakref.WeakKeyDictionary[Chain, str | None] = weakref.WeakKeyDictionary()
 
@@ -1193,8 +1215,12 @@ class ClosedForm(Solver):
         q = res.q[0]
         if res.reach[0] > 0.0:
             where = "inside the inner hole of" if res.inner[0] else "beyond"
-            point = "wrist point" if R is not None else "end effector"
-            msg = f"the {point} target is {res.reach[0]:.6g} m {where} the shell the arm reaches"
+            point = "wrist point" if R is not None else "end effector (wrist kept)"
+            r_min, r_max = res.setup.shell[0][0], res.setup.shell[1][0]
+            msg = (
+                f"the target puts the {point} {res.reach[0]:.6g} m {where} the reachable "
+                f"shell [{r_min:.4f}, {r_max:.4f}] m around the shoulder"
+            )
             return self._result(chain, target, q, 1, status="unreachable", message=msg)
         if not res.feasible[0]:
             if not res.elbow_ok[0]:
@@ -1384,8 +1410,7 @@ class _Scalar:
         self.ctx = ctx
         self.elo, self.ehi, self.ecen = ctx.elbow_lo, ctx.elbow_hi, ctx.elbow_center
         self.wrist_point = self._forearm(ctx.W0)
-        self.last_wrist: tuple | None = None
-        self.last_point = self.wrist_point
+        self.last_wrist: tuple = ((), self.wrist_point)  # (wrist angles, hand point)
         self.e = _tup(ctx.Ea - ctx.S)
         self.ue = _tup(ctx.ue)
         self.down = _tup(g.down)
@@ -1399,8 +1424,7 @@ class _Scalar:
         R0 = g.R_ee0
         self.wr_u3e = _tup(R0.T @ ctx.wr.u3)
         self.wr_f1e, self.wr_f2e = _tup(R0.T @ wr.f1), _tup(R0.T @ wr.f2)
-        self.last_q0: tuple | None = None
-        self.last_e: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self.last_q0: tuple = ((), (0.0, 0.0, 0.0))  # (shoulder angles, elbow)
 
     def _forearm(self, P: NDArray) -> tuple:
         """Law-of-cosines constants and ``P(q4) = Pc + cos q4 Pa + sin q4 Pb`` for the
@@ -1421,23 +1445,27 @@ class _Scalar:
     def hand_point(self, qw: list[float]) -> tuple:
         """:meth:`_forearm` of the end effector with the wrist at ``qw`` (cached)."""
         key = tuple(qw)
-        if key != self.last_wrist:
-            g = self.ctx.geo
-            v = g.p_ee0 - self.ctx.W0
-            for k in (2, 1, 0):
-                v = _rodrigues(g.wrist_axes[k], qw[k]) @ v
-            self.last_wrist, self.last_point = key, self._forearm(self.ctx.W0 + v)
-        return self.last_point
+        last = self.last_wrist
+        if key == last[0]:
+            return last[1]
+        g = self.ctx.geo
+        v = g.p_ee0 - self.ctx.W0
+        for k in (2, 1, 0):
+            v = _rodrigues(g.wrist_axes[k], qw[k]) @ v
+        point = self._forearm(self.ctx.W0 + v)
+        self.last_wrist = (key, point)
+        return point
 
     def elbow_q0(self, q0: list[float]) -> tuple[float, float, float]:
         """``R_sh(q0) (E - S)``: the starting elbow relative to the shoulder (cached)."""
         key = (q0[0], q0[1], q0[2])
-        if key == self.last_q0:
-            return self.last_e
+        last = self.last_q0
+        if key == last[0]:
+            return last[1]
         v = self.e
         for k in (2, 1, 0):
             v = _rot(self.sh_axes[k], math.cos(q0[k]), math.sin(q0[k]), v)
-        self.last_q0, self.last_e = key, v
+        self.last_q0 = (key, v)
         return v
 
 
@@ -1627,26 +1655,3 @@ def _wrist_coefficients(F: _Scalar, hand, ce: float, se: float, a, b, cv) -> tup
         H1 * nF1, H2 * rF1 + H3 * kF1, H2 * kF1 - H3 * rF1,
         H1 * nF2, H2 * rF2 + H3 * kF2, H2 * kF2 - H3 * rF2,
     )  # fmt: skip
-
-
-def swivel_angle(chain: Chain, q: ArrayLike) -> float:
-    """The swivel [rad] of posture ``q (7,)``: its elbow about its own shoulder-wrist line.
-
-    Solving the pose of ``q`` with this as the preferred swivel returns ``q``'s elbow
-    position (and ``q`` itself when its branches are the ones closest to the start).
-
-    Raises:
-        SolverError: the chain is not a spherical shoulder + elbow + spherical wrist.
-        TargetError: ``q`` is not 7 finite values.
-    """
-    ctx = _context(chain)
-    qq = chain.check_q(q)
-    sh = ctx.sh
-    e = (ctx.Ea - ctx.S)[None]
-    w = (ctx.Ea - ctx.S + _rodrigues(ctx.ue, float(qq[3])) @ (ctx.W0 - ctx.Ea))[None]
-    for k, u in ((2, sh.u3), (1, sh.u2), (0, sh.u1)):
-        c, s = np.cos(qq[k : k + 1]), np.sin(qq[k : k + 1])
-        e, w = _rotate(u, c, s, e), _rotate(u, c, s, w)
-    n = _unit(w, np.array([[1.0, 0.0, 0.0]]))
-    ref = _perp_unit(ctx.geo.down[None], n, [np.eye(3)[0], np.eye(3)[1]])
-    return float(np.arctan2(np.sum(e * np.cross(n, ref)), np.sum(e * ref)))
