@@ -596,9 +596,22 @@ def _contact_sheet(
 
 
 def _gif(path: Path, frames: Sequence[NDArray[np.uint8]], frame_ms: int) -> Path:
+    """An animated GIF with one palette for every frame (taken from a few frames spread
+    over the run, no dithering), so that Pillow stores only what changed between frames."""
     from PIL import Image
 
-    imgs = [Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE) for f in frames]
+    picks = [frames[k] for k in np.linspace(0, len(frames) - 1, min(6, len(frames))).astype(int)]
+    # the marker and trail colours get palette entries of their own
+    swatch = np.array(
+        [[255 * np.array(c[:3]) for c in (*COLORS.values(), *TRAIL_COLORS)]], dtype=np.uint8
+    )
+    width = picks[0].shape[1]
+    swatch = np.repeat(np.repeat(swatch, 8, axis=0), -(-width // swatch.shape[1]), axis=1)
+    picks.append(swatch[:, :width])
+    palette = Image.fromarray(np.concatenate(picks, axis=0)).quantize(
+        colors=255, method=Image.Quantize.MEDIANCUT
+    )
+    imgs = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
     with atomic_path(path) as tmp:
         imgs[0].save(
             tmp,
