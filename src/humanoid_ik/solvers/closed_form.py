@@ -680,7 +680,8 @@ def _into_range(q: NDArray, lo, hi, center) -> NDArray[np.float64]:
 def _triple_angles(
     tri: _Triple, ev: _Eval, q_pref: NDArray
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Both branches' angles ``(2, M, K, 3)``, range violation ``(2, M, K)``, validity.
+    """Both branches' angles ``(2, M, K, 3)``, largest range violation ``(2, M, K)`` [rad]
+    and validity (the joint decomposes there).
 
     Each angle is shifted by 2 pi next to the middle of its range; unlimited joints next
     to ``q_pref (M, 3)``.
@@ -693,7 +694,7 @@ def _triple_angles(
         out[b, ..., 2] = np.arctan2(ev.y3[b], ev.x3[b])
     center = np.where(tri.kind > 0, tri.center, q_pref[:, None, :])
     out = _into_range(out, tri.lower, tri.upper, center)
-    viol = np.sum(np.maximum(tri.lower - out, 0.0) + np.maximum(out - tri.upper, 0.0), axis=-1)
+    viol = np.max(np.maximum(tri.lower - out, 0.0) + np.maximum(out - tri.upper, 0.0), axis=-1)
     valid = np.broadcast_to(ev.decomposable, viol.shape)
     return out, viol, valid
 
@@ -701,7 +702,7 @@ def _triple_angles(
 def _pick_branch(ang, viol, valid, q_pref) -> tuple[NDArray, NDArray]:
     """Per row the branch inside the ranges closest to ``q_pref``, else the least violating."""
     dist = np.sum(np.abs(ang - q_pref), axis=2)  # (2, M)
-    key = np.where(valid, dist + np.where(viol > 3 * RANGE_TOL, 1e6 * (1.0 + viol), 0.0), np.inf)
+    key = np.where(valid, dist + np.where(viol > RANGE_TOL, 1e6 * (1.0 + viol), 0.0), np.inf)
     pick = np.argmin(key, axis=0)
     rows = np.arange(ang.shape[1])
     return ang[pick, rows], viol[pick, rows]
@@ -709,7 +710,7 @@ def _pick_branch(ang, viol, valid, q_pref) -> tuple[NDArray, NDArray]:
 
 _GIMBAL = 1e-7
 """Below this ``1 - (u1 . R u3)^2`` the outer axes of a joint nearly align and its angles
-are taken from the explicit rotation (``decompose_three_axes``)."""
+are taken from the explicit rotation (:func:`_gimbal_splits`)."""
 
 
 def _explicit(ctx: _Context, setup: _Setup, m: int, c: float, s: float, wrist: bool):
@@ -749,9 +750,9 @@ def _joint_angles(
             q2 = math.atan2(float(ev.s2[b][i, 0]), float(ev.c2[b][i, 0]))
             for qq in _gimbal_splits(tri, R, q2, ang[b, i, 0], q_pref[i]):
                 vv = float(
-                    np.sum(np.maximum(tri.lower - qq, 0.0) + np.maximum(qq - tri.upper, 0.0))
+                    np.max(np.maximum(tri.lower - qq, 0.0) + np.maximum(qq - tri.upper, 0.0))
                 )
-                key = (vv > 3 * RANGE_TOL, vv, float(np.sum(np.abs(qq - q_pref[i]))))
+                key = (vv > RANGE_TOL, vv, float(np.sum(np.abs(qq - q_pref[i]))))
                 if best is None or key < best[0]:
                     best = (key, qq, vv)
         if best is not None:
@@ -1254,6 +1255,13 @@ def _dot(a, b) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
+def _proj(rows, v) -> tuple[float, float, float]:
+    """Dot products of ``v`` with three vectors given as 9 floats, row after row."""
+    a0, a1, a2, b0, b1, b2, c0, c1, c2 = rows
+    x, y, z = v
+    return a0 * x + a1 * y + a2 * z, b0 * x + b1 * y + b2 * z, c0 * x + c1 * y + c2 * z
+
+
 def _sector(tri: _Triple, j: int):
     """``inside(x, y)`` for joint ``j`` of ``tri`` (the test of :func:`_inside`)."""
     kind = int(tri.kind[j])
@@ -1417,8 +1425,8 @@ class _Scalar:
         self.sh, self.wr = _ScalarTriple(ctx.sh), _ScalarTriple(ctx.wr)
         self.sh_axes = [_tup(a) for a in g.shoulder_axes]
         sh, wr = self.sh, self.wr
-        self.sh_e1, self.sh_e2, self.sh_u1 = _tup(sh.e1), _tup(sh.e2), sh.u1
-        self.sh_f1, self.sh_f2, self.sh_u3 = _tup(sh.f1), _tup(sh.f2), sh.u3
+        self.sh_read = (*_tup(sh.e1), *_tup(sh.e2), *sh.u1)  # q1's frame (e1, e2, u1)
+        self.sh_z_read = (*sh.u3, *_tup(sh.f1), *_tup(sh.f2))  # u3 and q3's (f1, f2)
         self.wr_e1, self.wr_e2, self.wr_u1 = _tup(wr.e1), _tup(wr.e2), wr.u1
         # wrist vectors taken into the end-effector frame at zero: R_ee0' v
         R0 = g.R_ee0
@@ -1543,9 +1551,9 @@ def _solve_one(
         cp, sp = math.cos(swivel), math.sin(swivel)
     # per target: n, r, k in the shoulder's reading frame; the hand's vectors in (n, r, k)
     sh, wr = F.sh, F.wr
-    ne1, re1, ke1 = _dot(n, F.sh_e1), _dot(r, F.sh_e1), _dot(k, F.sh_e1)
-    ne2, re2, ke2 = _dot(n, F.sh_e2), _dot(r, F.sh_e2), _dot(k, F.sh_e2)
-    m1, m2, m3 = _dot(n, F.sh_u1), _dot(r, F.sh_u1), _dot(k, F.sh_u1)
+    ne1, ne2, m1 = _proj(F.sh_read, n)
+    re1, re2, m2 = _proj(F.sh_read, r)
+    ke1, ke2, m3 = _proj(F.sh_read, k)
     if pose:
         hand = _hand_frames(F, rotation, n, r, k)
     Sx, Sy, Sz = F.S
@@ -1566,9 +1574,9 @@ def _solve_one(
         b = _reproject(bx / bn, by / bn, bz / bn, a)
         cv = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
         # shoulder: y = n al + r (be c - ga s) + k (ga c + be s); z = a m1 + b (..) + cv (..)
-        al, be, ga = _dot(a, sh.u3), _dot(b, sh.u3), _dot(cv, sh.u3)
-        af1, bf1, cf1 = _dot(a, F.sh_f1), _dot(b, F.sh_f1), _dot(cv, F.sh_f1)
-        af2, bf2, cf2 = _dot(a, F.sh_f2), _dot(b, F.sh_f2), _dot(cv, F.sh_f2)
+        al, af1, af2 = _proj(F.sh_z_read, a)
+        be, bf1, bf2 = _proj(F.sh_z_read, b)
+        ga, cf1, cf2 = _proj(F.sh_z_read, cv)
         ksh = (
             al * ne1, be * re1 + ga * ke1, be * ke1 - ga * re1,
             al * ne2, be * re2 + ga * ke2, be * ke2 - ga * re2,
@@ -1618,7 +1626,8 @@ def _hand_frames(F: _Scalar, rotation, n, r, k) -> tuple[float, ...]:
         r10 * u3e[0] + r11 * u3e[1] + r12 * u3e[2],
         r20 * u3e[0] + r21 * u3e[1] + r22 * u3e[2],
     )
-    G1, G2, G3 = _dot(gw, n), _dot(gw, r), _dot(gw, k)
+    nrk = (*n, *r, *k)
+    G1, G2, G3 = _proj(nrk, gw)
     F1t = (
         r00 * f1e[0] + r01 * f1e[1] + r02 * f1e[2],
         r10 * f1e[0] + r11 * f1e[1] + r12 * f1e[2],
@@ -1629,8 +1638,8 @@ def _hand_frames(F: _Scalar, rotation, n, r, k) -> tuple[float, ...]:
         r10 * f2e[0] + r11 * f2e[1] + r12 * f2e[2],
         r20 * f2e[0] + r21 * f2e[1] + r22 * f2e[2],
     )
-    nF1, rF1, kF1 = _dot(n, F1t), _dot(r, F1t), _dot(k, F1t)
-    nF2, rF2, kF2 = _dot(n, F2t), _dot(r, F2t), _dot(k, F2t)
+    nF1, rF1, kF1 = _proj(nrk, F1t)
+    nF2, rF2, kF2 = _proj(nrk, F2t)
     return (G1, G2, G3, nF1, rF1, kF1, nF2, rF2, kF2)
 
 
@@ -1645,9 +1654,10 @@ def _wrist_coefficients(F: _Scalar, hand, ce: float, se: float, a, b, cv) -> tup
     E1 = _rot(F.ue, ce, se, F.wr_e1)
     E2 = _rot(F.ue, ce, se, F.wr_e2)
     Hv = _rot(F.ue, ce, se, F.wr_u1)
-    aE1, bE1, cE1 = _dot(a, E1), _dot(b, E1), _dot(cv, E1)
-    aE2, bE2, cE2 = _dot(a, E2), _dot(b, E2), _dot(cv, E2)
-    H1, H2, H3 = _dot(a, Hv), _dot(b, Hv), _dot(cv, Hv)
+    rows = (*E1, *E2, *Hv)
+    aE1, aE2, H1 = _proj(rows, a)
+    bE1, bE2, H2 = _proj(rows, b)
+    cE1, cE2, H3 = _proj(rows, cv)
     return (
         aE1 * G1, bE1 * G2 + cE1 * G3, bE1 * G3 - cE1 * G2,
         aE2 * G1, bE2 * G2 + cE2 * G3, bE2 * G3 - cE2 * G2,
