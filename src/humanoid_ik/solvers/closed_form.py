@@ -228,10 +228,8 @@ def structure_problem(chain: Chain) -> str | None:
         if float(np.linalg.norm(np.cross(point - E, u))) < 1e-9:
             return f"closed_form needs an elbow axis that does not pass through the {name} point"
     for name, ax in (("shoulder", axes[:3]), ("wrist", axes[4:])):
-        if abs(float(np.linalg.det(ax))) < 1e-9 and (
-            abs(float(ax[0] @ ax[1])) > 1 - 1e-9 or abs(float(ax[1] @ ax[2])) > 1 - 1e-9
-        ):
-            return f"closed_form needs three distinct {name} axes (neighbours not parallel)"
+        if abs(float(ax[0] @ ax[1])) > 1 - 1e-9 or abs(float(ax[1] @ ax[2])) > 1 - 1e-9:
+            return f"closed_form needs {name} axes whose neighbours are not parallel"
     return None
 
 
@@ -508,7 +506,7 @@ def _setup(
     if swivel is None:
         e = np.broadcast_to(Ea - S, (N, 3))
         for k in (2, 1, 0):
-            e = _rotate(sh.__dict__[f"u{k + 1}"], np.cos(q0[:, k]), np.sin(q0[:, k]), e)
+            e = _rotate((sh.u1, sh.u2, sh.u3)[k], np.cos(q0[:, k]), np.sin(q0[:, k]), e)
         e = e - n * np.sum(e * n, axis=1, keepdims=True)
         x_, y_ = np.sum(e * ref, axis=1), np.sum(e * np.cross(n, ref), axis=1)
         norm = np.hypot(x_, y_)
@@ -643,10 +641,10 @@ def _roots(tri: _Triple, cy: NDArray, cz: NDArray) -> tuple[NDArray, NDArray, ND
     if tri.eq_row.size == 0:
         z = np.zeros((M, 0))
         return z, z, z.astype(bool)
-    k = np.where(tri.eq_src[None, :, None] == 0, cy[:, tri.eq_row % cy.shape[1]], 0.0)
-    if np.any(tri.eq_src == 1):
-        kz = cz[:, np.minimum(tri.eq_row, cz.shape[1] - 1)]
-        k = np.where(tri.eq_src[None, :, None] == 1, kz, k)  # (3, E, M)
+    k = np.empty((3, tri.eq_row.size, M))  # (const, cos, sin) of each equation's left side
+    on_y, on_z = tri.eq_src == 0, tri.eq_src == 1
+    k[:, on_y] = cy[:, tri.eq_row[on_y]]
+    k[:, on_z] = cz[:, tri.eq_row[on_z]]
     d = tri.eq_rhs[:, None] - k[0]
     kc, ks = k[1], k[2]
     rho2 = kc * kc + ks * ks
