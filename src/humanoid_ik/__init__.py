@@ -7,11 +7,17 @@ from humanoid_ik.errors import (
     HumanoidIKError,
     ModelError,
     NameNotFoundError,
+    RenderError,
+    SceneError,
     SolverError,
     TargetError,
+    TrajectoryError,
     UnsupportedJointError,
 )
+from humanoid_ik.render import render_scene
 from humanoid_ik.rotations import look_at
+from humanoid_ik.runner import SceneRunner, run_scene
+from humanoid_ik.scenes import Scene, load_scene
 from humanoid_ik.solvers import SOLVERS, make_solver
 from humanoid_ik.types import IKResult, Target
 
@@ -25,14 +31,22 @@ __all__ = [
     "IKResult",
     "ModelError",
     "NameNotFoundError",
+    "RenderError",
     "SOLVERS",
+    "Scene",
+    "SceneError",
+    "SceneRunner",
     "SolverError",
     "Target",
     "TargetError",
+    "TrajectoryError",
     "UnsupportedJointError",
     "bundled_model_path",
     "load_model",
+    "load_scene",
     "look_at",
     "make_solver",
+    "render_scene",
+    "run_scene",
     "solve",
 ]
