@@ -6,8 +6,11 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import signal
 import subprocess
 import sys
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -23,6 +26,7 @@ from humanoid_ik.errors import RenderError
 from humanoid_ik.render import (
     MARKER_RADIUS,
     FrameRenderer,
+    VideoWriter,
     check_output_dir,
     project,
     render_scene,
@@ -196,6 +200,23 @@ def test_project_matches_the_pinhole_model():
     assert u == pytest.approx(320.0 + f * 0.1 / 2.0) and v == pytest.approx(240 - f * 0.05 / 2)
     with pytest.raises(RenderError, match=r"camera 'left' not in model; cameras: front, side"):
         project(m, d, "left", c, 640, 480)
+
+
+def test_video_writer_failure_is_one_line(tmp_path):
+    """When ffmpeg cannot write the file, writing or closing raises a one-line RenderError
+    naming the file, and nothing is left behind."""
+    w = VideoWriter(tmp_path / "gone" / "a.mp4", 64, 48, 10)
+    with pytest.raises(RenderError) as info:
+        for _ in range(50):
+            w.write(np.zeros((48, 64, 3), np.uint8))
+            time.sleep(0.02)
+        w.close()
+    msg = str(info.value)
+    assert msg.startswith(f"video encoding to '{tmp_path / 'gone' / 'a.mp4'}' failed (ffmpeg): ")
+    assert "\n" not in msg
+    with pytest.raises(RenderError, match=r"video encoding to .* failed"):
+        w.close()
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_unknown_camera_in_frame_renderer():
@@ -381,3 +402,44 @@ def test_backend_without_display_fails_in_one_line(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1
     assert "MUJOCO_GL=glfw" in proc.stderr and "libegl1" in proc.stderr
+
+
+def test_ctrl_c_keeps_a_valid_shorter_video(tmp_path):
+    """SIGINT during `humanoid-ik render` stops it with exit 130 and leaves a valid MP4 and
+    metrics for the frames rendered so far."""
+    out = tmp_path / "o"
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "humanoid_ik",
+            "render",
+            "circle",
+            "--frames",
+            "3000",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not list(out.glob(".circle.*.tmp.mp4")):
+        time.sleep(0.1)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stderr
+    n = int(re.search(r"interrupted after (\d+) frame", stderr).group(1))
+    assert 0 < n < 3000
+    assert len(decode(out / "circle.mp4")) == n
+    assert sum(1 for _ in open(out / "metrics.csv")) == 1 + n
+    assert f"circle: {n} frame(s)" in stdout
+    assert not list(out.glob(".*tmp*"))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -237,6 +238,9 @@ BAD = [
         "render.camera: expected one of front, side, top, three_quarter, got 'left'",
     ),
     ("[render]", "[render]\ntrail = -1", "render.trail: expected a number >= 0, got -1"),
+    ('camera = "front"', "camera = 3", "render.camera: expected a camera name, got 3"),
+    ('name = "probe"', 'name = "probe"\ndescription = 3', "description: expected a string, got 3"),
+    ('site = "right_palm_site"', "site = 3", "effectors[0].site: expected a site name, got 3"),
     ("[render]", "[render]\ngif = 1", "render.gif: expected true or false, got 1"),
     ("[render]", '[render]\nsnapshots = "all"', "render.snapshots: expected a list of times"),
     ("[render]", "[render]\nsnapshots = [1, -1]", "render.snapshots[1]: expected a number >= 0"),
@@ -356,6 +360,9 @@ def test_file_level_errors(tmp_path):
         tmp_path, GOOD.replace('[[effectors]]\nsite = "right_palm_site"\ntarget = "ball"', "")
     )
     assert "effectors: missing; expected an array of tables" in error_of(p)
+    text = GOOD.replace('name = "probe"', 'name = "probe"\neffectors = [1]', 1)
+    text = text[: text.index("[[effectors]]")]
+    assert "effectors[0]: expected a table, got 1" in error_of(write(tmp_path, text))
     text = GOOD.replace('name = "probe"', 'name = "probe"\ntargets = 3', 1)
     text = text[: text.index("[[targets]]")] + text[text.index("[[effectors]]") :]
     assert "targets: expected an array of tables" in error_of(write(tmp_path, text))
@@ -412,3 +419,6 @@ def test_check_scene_of_a_python_built_scene():
     )
     with pytest.raises(SceneError, match=r"fps: expected a number > 0"):
         check_scene(bad_fps)
+    odd = replace(ok, render=RenderSpec(width=65))
+    with pytest.raises(SceneError, match=r"render.width: expected an even integer >= 16"):
+        check_scene(odd)

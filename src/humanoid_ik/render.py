@@ -473,10 +473,20 @@ class VideoWriter:
             while self._queue.get() is not None:  # let the producer finish
                 pass
 
+    def _failure(self) -> RenderError:
+        """The encoder's error in one line (ffmpeg prints its own reason on stderr)."""
+        lines = [ln.strip() for ln in str(self._error).splitlines() if ln.strip()]
+        why = lines[0] if lines else repr(self._error)
+        return RenderError(f"video encoding to '{self.path}' failed (ffmpeg): {why}")
+
     def write(self, frame: NDArray[np.uint8]) -> None:
-        """Queue one ``(height, width, 3)`` uint8 frame."""
+        """Queue one ``(height, width, 3)`` uint8 frame.
+
+        Raises:
+            RenderError: the encoder has failed (e.g. ffmpeg cannot write the file).
+        """
         if self._error is not None:
-            raise RenderError(f"video encoding failed: {self._error}")
+            raise self._failure()
         self._queue.put(np.ascontiguousarray(frame).tobytes())
         self.frames += 1
 
@@ -491,7 +501,7 @@ class VideoWriter:
         if self._error is not None or self.frames == 0:
             self._ctx.__exit__(RenderError, RenderError("aborted"), None)
             if self._error is not None:
-                raise RenderError(f"video encoding failed: {self._error}") from self._error
+                raise self._failure() from self._error
             return None
         self._ctx.__exit__(None, None, None)
         return self.path
@@ -550,8 +560,6 @@ def check_output_dir(folder: str | os.PathLike) -> Path:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise RenderError(f"cannot create output folder '{p}': {exc.strerror or exc}") from None
-    if not p.is_dir():
-        raise RenderError(f"output folder '{p}' is not a folder")
     try:
         fd, name = tempfile.mkstemp(prefix=".write-check.", dir=p)
         os.close(fd)

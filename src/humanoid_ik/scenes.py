@@ -133,7 +133,11 @@ class EffectorSpec:
 
     def __post_init__(self) -> None:
         if self.task not in TASKS:
-            raise SceneError("<effector>", "task", f"expected one of {TASKS}, got {self.task!r}")
+            raise SceneError(
+                "<effector>",
+                "task",
+                f"expected one of {', '.join(map(repr, TASKS))}, got {show_value(self.task)}",
+            )
         if self.joints is not None:
             object.__setattr__(self, "joints", tuple(self.joints))
 
