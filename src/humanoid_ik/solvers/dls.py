@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+import weakref
 from typing import Any, ClassVar
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -13,6 +15,8 @@ from humanoid_ik.solvers.iterative import JacobianSolver
 
 __all__ = ["DLS"]
 
+_W0: weakref.WeakKeyDictionary[Chain, dict[int, float]] = weakref.WeakKeyDictionary()
+
 
 class DLS(JacobianSolver):
     """``dq = J' (J J' + lambda^2 I)^-1 e``.
@@ -20,7 +24,9 @@ class DLS(JacobianSolver):
     The damping follows the manipulability ``w = sqrt(det(J J'))`` (Nakamura and Hanafusa):
     ``lambda^2 = damping^2 (1 - w / w0)^2`` when ``w < w0``, plus ``min_damping^2``
     always, with ``w0 = singular_fraction * w(home)``. Far from singularities the step
-    is the pseudo-inverse step; near one it stays bounded.
+    is the pseudo-inverse step; near one it stays bounded. The system is solved by
+    MuJoCo's Cholesky factorisation (``mju_cholFactor``/``mju_cholSolve``), whose diagonal
+    also gives ``w``, without a separate determinant.
     """
 
     name: ClassVar[str] = "dls"
@@ -32,26 +38,34 @@ class DLS(JacobianSolver):
     }
 
     def _prepare(self, chain: Chain, rows: int) -> None:
-        key = (id(chain), rows)
-        cache = getattr(self, "_w0_cache", None)
-        if cache is None or cache[0] != key:
+        per_chain = _W0.setdefault(chain, {})
+        if rows not in per_chain:  # manipulability at home, once per chain and task
             saved = chain.q
             chain.set_q(chain.q_home)
             J = chain._jacobian()[:rows]
-            w_home = math.sqrt(max(np.linalg.det(J @ J.T), 0.0))
+            per_chain[rows] = math.sqrt(max(np.linalg.det(J @ J.T), 0.0))
             chain.set_q(saved)
-            self._w0_cache = (key, self.singular_fraction * w_home)
-        self._w0 = self._w0_cache[1]
-        self._eye = np.eye(rows)
-        self._A = np.empty((rows, rows))
+        self._w0 = self.singular_fraction * per_chain[rows]
+        if getattr(self, "_rows", None) != rows:
+            self._rows = rows
+            self._A = np.empty((rows, rows))
+            self._L = np.empty((rows, rows))
+            self._A_diag = self._A.reshape(-1)[:: rows + 1]  # views of the diagonals
+            self._L_diag = self._L.reshape(-1)[:: rows + 1]
+            self._y = np.empty(rows)
 
     def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
-        A = np.matmul(J, J.T, out=self._A)
-        lam2 = self.min_damping * self.min_damping
+        A, L, y = self._A, self._L, self._y
+        np.matmul(J, J.T, out=A)
+        self._A_diag += self.min_damping * self.min_damping
+        L[:] = A
+        mujoco.mju_cholFactor(L, 1e-15)  # A = L L' (lower triangle, in place)
         if self._w0 > 0.0:
-            w = math.sqrt(max(np.linalg.det(A), 0.0))
+            w = float(np.prod(self._L_diag))  # sqrt(det A) = product of diag(L)
             if w < self._w0:
                 s = 1.0 - w / self._w0
-                lam2 += self.damping * self.damping * s * s
-        A += lam2 * self._eye
-        return J.T @ np.linalg.solve(A, e)
+                L[:] = A
+                self._L_diag += self.damping * self.damping * s * s
+                mujoco.mju_cholFactor(L, 1e-15)
+        mujoco.mju_cholSolve(y, L, e)
+        return J.T @ y

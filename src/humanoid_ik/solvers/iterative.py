@@ -117,9 +117,10 @@ class JacobianSolver(Solver):
                 if cost < best_cost:
                     best_cost = cost
                     best_q[:] = q
-                if ep < tol and er_n < rot_tol:
-                    iterations += it
-                    return self._result(chain, target, q, iterations)
+                if ep < tol and er_n < rot_tol:  # kinematics are current: no second FK
+                    return IKResult(
+                        q, True, iterations + it, ep, er_n if pose else None, "converged", self.name
+                    )
                 slot = it % window
                 if it == self.max_iterations or (it >= window and cost > 0.99 * history[slot]):
                     iterations += it
