@@ -43,9 +43,9 @@ def rss_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def run(steps: int, solver_name: str, heap: bool = False) -> dict:
+def run(steps: int, solver_name: str, heap: bool = False, **options) -> dict:
     chain = Chain()
-    solver = make_solver(solver_name)
+    solver = make_solver(solver_name, **options)
     shoulder = np.array([0.0, -0.19, 1.40])
     reach = make_solver("two_link").shell(chain).r_max
     times = np.empty(steps)

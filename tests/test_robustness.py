@@ -182,7 +182,7 @@ def test_long_tracking_run_stays_bounded():
     spec = importlib.util.spec_from_file_location("long_run", path)
     long_run = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(long_run)
-    r = long_run.run(3000, "dls", heap=True)
+    r = long_run.run(3000, "dls", heap=True, restarts=3)
     assert r["nan"] == 0 and r["limit_violations"] == 0
     assert r["worst_reachable_error_m"] < 1e-3
     assert r["heap_kib_end"] - r["heap_kib_after_1000"] < 64.0
