@@ -45,13 +45,21 @@ def test_chain_reach_of_the_arm(right_arm):
 
 
 def test_every_scene_reaches_its_reachable_targets_within_1mm(runs):
-    """On every frame of every bundled scene where the target is within reach, the site
-    measured on MjData is within 1 mm of it (pose targets: and within 0.01 rad)."""
+    """Once an effector has converged (its first frame on target), on every later frame
+    where the target is within reach the site measured on MjData is within 1 mm of it
+    (pose targets: and within 0.01 rad). Solvers that track under a velocity limit take
+    a few frames to get there from home; the others converge on frame 0."""
     for name, m in runs.items():
         assert len(m) == m.scene.n_frames
         for k, eff in enumerate(m.scene.effectors):
             err = m.series(k, "position_error")
             reach = m.series(k, "reachable").astype(bool)
+            on = m.series(k, "on_target").astype(bool)
+            assert on.any(), (name, eff.site)
+            first = int(np.argmax(on))
+            rate_limited = m.scene.solver.options.get("dt", 0.0) > 0.0
+            assert first == 0 or (rate_limited and first <= 10), (name, eff.site, first)
+            reach[:first] = False
             assert reach.any(), name
             assert err[reach].max() < 1e-3, (name, eff.site, err[reach].max())
             if m.scene.target(eff.target).is_pose:
