@@ -27,6 +27,7 @@ from humanoid_ik import (
     make_solver,
     solve,
 )
+from humanoid_ik.bench import make_targets
 from humanoid_ik.rotations import mat_to_quat, rotation_log
 from humanoid_ik.solvers.mink_ext import (
     CollisionLimit,
@@ -64,13 +65,7 @@ BODY_GEOMS = ["torso_collision", "chest_collision", "head_collision"]
 
 
 def _targets(chain: Chain, n: int, seed: int, pose: bool) -> list[Target]:
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(n):
-        p, R = chain.fk(chain.random_q(rng))
-        out.append(Target(p, mat_to_quat(R) if pose else None))
-    chain.reset()
-    return out
+    return make_targets(chain, n, seed, pose)
 
 
 def _min_distance(m: mujoco.MjModel, d: mujoco.MjData) -> float:

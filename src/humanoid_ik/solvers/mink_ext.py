@@ -23,7 +23,38 @@ from humanoid_ik.errors import TargetError
 __all__ = ["PositionTask", "GazeTask", "JointRangeLimit", "JointVelocityLimit", "CollisionLimit"]
 
 
-class PositionTask(mink.Task):
+class _BufferedTask(mink.Task):
+    """A task whose ``_update(configuration)`` fills the buffers ``_e`` ``(k,)`` and ``_J``
+    ``(k, nv)`` at the configuration's kinematics; the mink interface reads them."""
+
+    _e: NDArray[np.float64]
+    _J: NDArray[np.float64]
+
+    def _update(self, configuration: mink.Configuration) -> None:
+        raise NotImplementedError
+
+    def compute_error(self, configuration: mink.Configuration) -> NDArray[np.float64]:
+        """The task error ``e`` ``(k,)`` (a copy)."""
+        self._update(configuration)
+        return self._e.copy()
+
+    def compute_jacobian(self, configuration: mink.Configuration) -> NDArray[np.float64]:
+        """The task Jacobian ``J = de/dq`` ``(k, nv)`` (a copy)."""
+        self._update(configuration)
+        return self._J.copy()
+
+    def compute_qp_residual(
+        self, configuration: mink.Configuration
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        self._update(configuration)
+        return self._weighted_residual(self._e, self._J)
+
+    def compute_qp_objective(self, configuration: mink.Configuration) -> mink.Objective:
+        self._update(configuration)
+        return self._assemble_qp(self._e, self._J, configuration._eye_nv)
+
+
+class PositionTask(_BufferedTask):
     """Move a site or body origin onto a point, in the world frame::
 
         e(q) = p - p*          # (3,) [m]
@@ -59,6 +90,7 @@ class PositionTask(mink.Task):
         self.obj_id = int(model.site(name).id if kind == "site" else model.body(name).id)
         self.target: NDArray[np.float64] | None = None
         self._jacp = np.zeros((3, model.nv))  # (3, nv)
+        self._J = self._jacp  # the task Jacobian is J_v itself
         self._e = np.empty(3)
 
     def set_target(self, point: ArrayLike) -> None:
@@ -85,28 +117,8 @@ class PositionTask(mink.Task):
             np.subtract(d.xpos[self.obj_id], self.target, out=self._e)
             mujoco.mj_jacBody(m, d, self._jacp, None, self.obj_id)
 
-    def compute_error(self, configuration: mink.Configuration) -> NDArray[np.float64]:
-        """``e = p - p*`` ``(3,)`` [m] (a copy)."""
-        self._update(configuration)
-        return self._e.copy()
 
-    def compute_jacobian(self, configuration: mink.Configuration) -> NDArray[np.float64]:
-        """``J = J_v`` ``(3, nv)`` (a copy)."""
-        self._update(configuration)
-        return self._jacp.copy()
-
-    def compute_qp_residual(
-        self, configuration: mink.Configuration
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-        self._update(configuration)
-        return self._weighted_residual(self._e, self._jacp)
-
-    def compute_qp_objective(self, configuration: mink.Configuration) -> mink.Objective:
-        self._update(configuration)
-        return self._assemble_qp(self._e, self._jacp, configuration._eye_nv)
-
-
-class GazeTask(mink.Task):
+class GazeTask(_BufferedTask):
     r"""Point a site's forward axis at a point in the world.
 
     With ``R`` and ``p`` the site's rotation and position, ``a`` the unit forward axis in
@@ -203,26 +215,6 @@ class GazeTask(mink.Task):
         jac = self._jac
         mujoco.mj_jacSite(m, d, jac[:3], jac[3:], sid)
         np.matmul(M, jac, out=self._J)
-
-    def compute_error(self, configuration: mink.Configuration) -> NDArray[np.float64]:
-        """``e = f - d`` ``(3,)`` (a copy)."""
-        self._update(configuration)
-        return self._e.copy()
-
-    def compute_jacobian(self, configuration: mink.Configuration) -> NDArray[np.float64]:
-        """``J = de/dq`` ``(3, nv)`` (a copy)."""
-        self._update(configuration)
-        return self._J.copy()
-
-    def compute_qp_residual(
-        self, configuration: mink.Configuration
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-        self._update(configuration)
-        return self._weighted_residual(self._e, self._J)
-
-    def compute_qp_objective(self, configuration: mink.Configuration) -> mink.Objective:
-        self._update(configuration)
-        return self._assemble_qp(self._e, self._J, configuration._eye_nv)
 
     def angle(self, configuration: mink.Configuration) -> tuple[float, float]:
         """``(theta [rad], miss [m])``: the angle between the axis and the target direction,
