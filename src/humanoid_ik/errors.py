@@ -102,3 +102,24 @@ def show_value(value: object) -> str:
     if hasattr(value, "tolist"):
         return show_value(value.tolist())
     return repr(value)
+
+
+class SweepError(HumanoidIKError, ValueError):
+    """A sweep file that cannot be read or expanded, or a sweep that cannot run (Ray
+    missing, an output folder that cannot be written).
+
+    Attributes:
+        path: the sweep file as the user named it (``""`` when no file is involved).
+        key: the dotted key of the bad value, e.g. ``solvers[1].grid.damping``.
+    """
+
+    def __init__(self, path: object, key: str, message: str):
+        self.path = "" if path is None else str(path)
+        self.key = key
+        where = ": ".join(p for p in (self.path, key) if p)
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+class DatasetError(HumanoidIKError, ValueError):
+    """A dataset request that cannot be met (bad size, a chain without the closed-form
+    structure) or a file that is not a humanoid_ik dataset."""
