@@ -240,6 +240,7 @@ def _scene_commands(subparsers) -> None:
 
 
 _EXTRA_COMMANDS: list = [_scene_commands]
+_EXTRA_COMMANDS.append(lambda sub: __import__("humanoid_ik.sweep_cli").sweep_cli.register(sub))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
