@@ -1,0 +1,115 @@
+"""Datasets: reproducible content, chunk independence, FK of solutions = targets, errors."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+
+from humanoid_ik import Chain
+from humanoid_ik.cli import main
+from humanoid_ik.dataset import BLOCK, FORMAT, read_dataset, write_dataset
+from humanoid_ik.errors import DatasetError
+from humanoid_ik.rotations import quat_to_mat
+
+
+def _sha(path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_same_seed_same_file_whatever_the_chunks(tmp_path):
+    """Same seed and n give byte-identical files for chunk sizes 1000, 4096 and 9000."""
+    n = BLOCK + 1500
+    paths = []
+    for chunk in (1000, BLOCK, 9000):
+        paths.append(write_dataset(tmp_path / f"c{chunk}.npz", n, 5, chunk=chunk))
+    assert len({_sha(p) for p in paths}) == 1
+    a, b = read_dataset(paths[0]), read_dataset(paths[2])
+    for k in ("positions", "quats", "q", "closed_form_ok"):
+        assert np.array_equal(getattr(a, k), getattr(b, k))
+
+
+def test_different_seed_differs_and_smaller_n_is_a_prefix(tmp_path):
+    """Another seed gives other targets; a smaller n gives the first rows of a larger one."""
+    big = read_dataset(write_dataset(tmp_path / "big.npz", 300, 1, chunk=64))
+    small = read_dataset(write_dataset(tmp_path / "small.npz", 70, 1, chunk=7))
+    other = read_dataset(write_dataset(tmp_path / "other.npz", 70, 2))
+    assert np.array_equal(small.q, big.q[:70])
+    assert np.array_equal(small.positions, big.positions[:70])
+    assert not np.allclose(other.positions, small.positions)
+
+
+def test_fk_of_every_solution_is_its_target(tmp_path):
+    """MuJoCo FK of each stored joint vector equals the stored pose to 1e-9, inside ranges."""
+    data = read_dataset(write_dataset(tmp_path / "d.npz", 600, 11, chunk=250))
+    chain = Chain()
+    assert data.q.shape == (600, 7) and data.positions.shape == (600, 3)
+    assert data.quats.shape == (600, 4) and data.closed_form_ok.all()
+    assert np.allclose(np.linalg.norm(data.quats, axis=1), 1.0, atol=1e-12)
+    assert (data.quats[:, 0] >= 0).all()
+    for q, p, quat in zip(data.q, data.positions, data.quats, strict=True):
+        assert chain.within_limits(q)
+        p_fk, R_fk = chain.fk(q)
+        assert np.abs(p_fk - p).max() < 1e-9
+        assert np.abs(R_fk - quat_to_mat(quat)).max() < 1e-9
+
+
+def test_metadata_names_model_site_joints_and_seed(tmp_path):
+    """The file's metadata holds the format, model, site, joint names, seed and n."""
+    path = write_dataset(tmp_path / "m.npz", 5, 9, site="left_palm_site")
+    meta = read_dataset(path).meta
+    assert meta["format"] == FORMAT and meta["model"] == "models/humanoid/scene.xml"
+    assert meta["site"] == "left_palm_site" and meta["seed"] == 9 and meta["n"] == 5
+    assert meta["joints"] == list(Chain(site="left_palm_site").joint_names)
+    assert meta["solver"] == "closed_form"
+    with np.load(path) as npz:  # a plain .npz: numpy opens it without the helper
+        assert set(npz.files) == {"positions", "quats", "q", "closed_form_ok", "meta"}
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"n": 0}, "n must be an integer >= 1, got 0"),
+        ({"n": 5, "seed": -1}, "seed must be an integer >= 0, got -1"),
+        ({"n": 5, "chunk": 0}, "chunk must be an integer >= 1, got 0"),
+        ({"n": 5, "site": "gaze_site"}, "closed_form does not fit chain gaze_site"),
+    ],
+)
+def test_bad_requests_raise(tmp_path, kwargs, message):
+    """Bad sizes, seeds and chains raise DatasetError naming the value."""
+    with pytest.raises(DatasetError, match=message):
+        write_dataset(tmp_path / "x.npz", **kwargs)
+
+
+def test_missing_folder_and_bad_files(tmp_path):
+    """An output folder that does not exist and files that are no dataset raise."""
+    with pytest.raises(DatasetError, match="does not exist"):
+        write_dataset(tmp_path / "nope" / "x.npz", 3)
+    with pytest.raises(DatasetError, match="cannot read dataset"):
+        read_dataset(tmp_path / "absent.npz")
+    np.savez(tmp_path / "plain.npz", a=np.zeros(2))
+    with pytest.raises(DatasetError, match="not a humanoid_ik dataset: no positions"):
+        read_dataset(tmp_path / "plain.npz")
+    arrays = {k: np.zeros(1) for k in ("positions", "quats", "q", "closed_form_ok")}
+    np.savez(tmp_path / "old.npz", meta=np.array('{"format": "old"}'), **arrays)
+    with pytest.raises(DatasetError, match="has format 'old'"):
+        read_dataset(tmp_path / "old.npz")
+
+
+def test_cli_dataset_and_its_errors(tmp_path, capsys):
+    """dataset writes the file and reports pairs/s; bad input is one line and exit 2."""
+    out = tmp_path / "d.npz"
+    assert main(["dataset", "--n", "50", "--out", str(out), "--seed", "3", "--chunk", "20"]) == 0
+    assert "50 pairs (seed 3)" in capsys.readouterr().out
+    assert read_dataset(out).meta["seed"] == 3
+    for argv, message in (
+        (["--n", "0", "--out", str(out)], "--n: expected an integer >= 1, got '0'"),
+        (["--n", "5", "--out", str(tmp_path / "d.csv")], "must end in .npz"),
+        (["--n", "5", "--out", str(out), "--seed", "-2"], "--seed: expected an integer >= 0"),
+        (["--n", "5", "--out", str(out), "--site", "gaze_site"], "closed_form does not fit"),
+        (["--n", "5", "--out", str(out), "--site", "hand"], "site 'hand' not in model"),
+    ):
+        assert main(["dataset", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
