@@ -181,7 +181,7 @@ def test_module_and_console_script_share_main():
 
 
 def test_option_values_are_typed(capsys):
-    """--option values parse as numbers, booleans and lists: look_at takes up=0,0,1."""
+    """--option values parse as numbers, booleans, strings and lists."""
     code, out, _ = _run(
         capsys,
         "solve",
@@ -192,7 +192,7 @@ def test_option_values_are_typed(capsys):
         "--solver",
         "look_at",
         "--option",
-        "up=0,0,1",
+        "forward_axis=x",
         "--option",
         "rot_tol=1e-8",
         "--json",
@@ -201,5 +201,7 @@ def test_option_values_are_typed(capsys):
     assert code == 0 and doc["orientation_error_rad"] < 1e-8
     code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--option", "restarts=true")
     assert code == 2 and "'restarts' of solver 'dls' must be a number, got True" in err
+    code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--option", "tol=1,2")
+    assert code == 2 and "'tol' of solver 'dls' must be a number, got [1, 2]" in err
     code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--joints", ",")
     assert code == 2 and "empty name list ','" in err

@@ -264,6 +264,29 @@ def test_gif_plot_and_interrupt(tmp_path):
     assert not [p for p in cut.folder.iterdir() if ".tmp" in p.name]
 
 
+def test_failed_render_leaves_no_video(tmp_path, monkeypatch):
+    """A run that fails at frame 3 (not Ctrl-C) raises and leaves no MP4 under its final
+    name and no temporary file; an earlier video there is kept."""
+    from humanoid_ik.errors import SolverError
+    from humanoid_ik.runner import SceneRunner
+
+    folder = tmp_path / "c"
+    folder.mkdir()
+    (folder / "circle.mp4").write_bytes(b"earlier video")
+    step = SceneRunner.step
+
+    def failing(self, index):
+        if index == 3:
+            raise SolverError("solver failed at frame 3")
+        return step(self, index)
+
+    monkeypatch.setattr(SceneRunner, "step", failing)
+    with pytest.raises(SolverError, match="frame 3"):
+        render_scene(load_scene("circle").with_overrides(width=64, height=48), folder, plot=False)
+    assert (folder / "circle.mp4").read_bytes() == b"earlier video"
+    assert not [p for p in folder.iterdir() if ".tmp" in p.name]
+
+
 # ----------------------------------------------------------------------------- CLI
 def test_render_command(tmp_path, capsys):
     """`humanoid-ik render` writes the outputs and prints a summary and the files."""

@@ -239,8 +239,8 @@ def test_solver_options_are_checked():
         make_solver("ccd", nudge=1.5)
     with pytest.raises(SolverError, match="'method' of solver 'two_link' is 'euler'; choices"):
         make_solver("two_link", method="euler")
-    with pytest.raises(SolverError, match="'up' of solver 'look_at' must be 3 finite numbers"):
-        make_solver("look_at", up=[0, 1])
+    with pytest.raises(SolverError, match="'tol' of solver 'dls' must be a number, got \\[1, 2\\]"):
+        make_solver("dls", tol=[1, 2])
     with pytest.raises(SolverError, match="'restarts' of solver 'dls' must be a number"):
         make_solver("dls", restarts=True)
 

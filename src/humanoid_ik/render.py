@@ -460,17 +460,19 @@ class VideoWriter:
         self._thread.start()
 
     def _pump(self) -> None:
+        drained = False
         try:
             self._writer.send(None)
             while True:
                 item = self._queue.get()
                 if item is None:
+                    drained = True
                     break
                 self._writer.send(item)
             self._writer.close()
         except BaseException as exc:  # reported by close()
             self._error = exc
-            while self._queue.get() is not None:  # let the producer finish
+            while not drained and self._queue.get() is not None:  # let the producer finish
                 pass
 
     def _failure(self) -> RenderError:
@@ -490,17 +492,19 @@ class VideoWriter:
         self._queue.put(np.ascontiguousarray(frame).tobytes())
         self.frames += 1
 
-    def close(self) -> Path | None:
-        """Finish the file; returns its path, or ``None`` when no frame was written.
+    def close(self, abort: bool = False) -> Path | None:
+        """Finish the file; returns its path, or ``None`` when no frame was written or
+        ``abort`` is true (the run failed: the temporary file is removed, nothing is
+        renamed into place).
 
         Raises:
-            RenderError: ffmpeg failed.
+            RenderError: ffmpeg failed (not raised when aborting).
         """
         self._queue.put(None)
         self._thread.join()
-        if self._error is not None or self.frames == 0:
+        if abort or self._error is not None or self.frames == 0:
             self._ctx.__exit__(RenderError, RenderError("aborted"), None)
-            if self._error is not None:
+            if self._error is not None and not abort:
                 raise self._failure() from self._error
             return None
         self._ctx.__exit__(None, None, None)
@@ -638,10 +642,7 @@ def _gif(path: Path, frames: Sequence[NDArray[np.uint8]], frame_ms: int) -> Path
 def plot_metrics(metrics: Metrics, path: str | os.PathLike) -> Path:
     """Plot position error [mm] (log scale) and solve time [ms] over time, per effector,
     with the frames where a target is out of reach shaded; written atomically as PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend is left alone
 
     fig = Figure(figsize=(8, 5), dpi=100)
     ax_e, ax_t = fig.subplots(2, 1, sharex=True)
@@ -756,9 +757,14 @@ def render_scene(
                 frame_times.append(time.perf_counter() - t0)
                 if progress is not None:
                     progress(i + 1, n)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt:  # keep what was rendered: a valid, shorter video
             interrupted = True
             metrics.interrupted = True
+        except BaseException:  # a failed run leaves no video under the final name
+            if writer is not None:
+                writer.close(abort=True)
+                writer = None
+            raise
         finally:
             if writer is not None:
                 video_path = writer.close()

@@ -648,6 +648,12 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
                 "(task = 'reach'); expected a reaching solver or task = 'look_at'",
             )
         solver = spec.make()
+        if eff.task == "look_at" and solver.reaches and not _is_multi(spec.name):
+            raise r.fail(
+                where,
+                f"solver '{spec.name}' moves a site onto a point; {key} ({eff.site}) aims "
+                "(task = 'look_at'); expected 'look_at' or 'mink'",
+            )
         reason = None if _is_multi(spec.name) else solver.applicable(chain, target.is_pose)
         if reason is not None:
             raise r.fail(where, f"solver '{spec.name}' cannot drive {key} ({eff.site}): {reason}")

@@ -89,14 +89,6 @@ class Solver(ABC):
                     )
                 return int(value)
             return float(value)
-        if isinstance(default, tuple):
-            arr = np.asarray(value, dtype=np.float64) if not isinstance(value, str) else None
-            if arr is None or arr.shape != (len(default),) or not np.all(np.isfinite(arr)):
-                raise SolverError(
-                    f"option '{key}' of solver '{self.name}' must be "
-                    f"{len(default)} finite numbers, got {value!r}"
-                )
-            return tuple(float(v) for v in arr)
         if isinstance(default, str):
             allowed = getattr(self, f"{key}_choices", None)
             if not isinstance(value, str) or (allowed and value not in allowed):

@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 
 from humanoid_ik.chain import Chain
-from humanoid_ik.rotations import AXES, hinge_angle_between, look_at
+from humanoid_ik.rotations import AXES, hinge_angle_between
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.types import IKResult, Target
 
@@ -19,14 +19,14 @@ __all__ = ["LookAt"]
 class LookAt(Solver):
     """Turn the chain's hinges so the site's ``forward_axis`` points at the target.
 
-    The desired frame is :func:`humanoid_ik.rotations.look_at` from the site to the
-    target with the ``up`` vector; its forward column is the direction to reach. Each
+    The direction to reach is the forward column of the look-at frame
+    (:func:`humanoid_ik.rotations.look_at`), ``(target - site) / |target - site|``. Each
     sweep turns every hinge (tip to root) by the angle that takes the current forward
-    axis closest to the desired one about that hinge, re-reading FK from MuJoCo, until
-    the angle between them is below ``rot_tol`` (for a yaw/pitch neck this converges in
-    a few sweeps; the gaze site's offset from the neck is accounted for by re-aiming from
-    the site's new position). Hinges cannot roll a 2-hinge head, so ``up`` only fixes
-    the desired frame's roll where the chain can follow it.
+    axis closest to that direction about the hinge, re-reading FK from MuJoCo, until the
+    angle between them is below ``rot_tol`` (for a yaw/pitch neck this converges in a
+    few sweeps; the gaze site's offset from the neck is accounted for by re-aiming from
+    the site's new position). Only the pointing is solved: the roll about the forward
+    axis (what an up vector would fix) is left where the chain has it.
     """
 
     name: ClassVar[str] = "look_at"
@@ -36,7 +36,6 @@ class LookAt(Solver):
     defaults: ClassVar[dict[str, Any]] = {
         "forward_axis": "x",
         "max_iterations": 50,
-        "up": (0.0, 0.0, 1.0),
     }
     _common: ClassVar[dict[str, Any]] = {"tol": 1e-4, "rot_tol": 1e-6}
 
@@ -57,7 +56,7 @@ class LookAt(Solver):
         for sweep in range(1, self.max_iterations + 1):
             for i in range(chain.n - 1, -1, -1):
                 j = jids[i]
-                want = look_at(chain.position, pd, self.up, self.forward_axis)[:, k]
+                want = pd - chain.position  # the look-at frame's forward column, unnormalised
                 fwd = chain.rotation[:, k]
                 phi = hinge_angle_between(d.xaxis[j], fwd, want)
                 q[i] = min(max(q[i] + phi, lo[i]), hi[i])
