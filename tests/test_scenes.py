@@ -275,8 +275,8 @@ BAD = [
     (
         'target = "ball"',
         'target = "ball"\ntask = "look_at"\nsolver = { name = "dls" }',
-        "effectors[0].solver.name: solver 'dls' moves a site onto a point; effectors[0] (right_palm_site) "
-        "aims (task = 'look_at'); expected 'look_at' or 'mink'",
+        "effectors[0].solver.name: solver 'dls' moves a site onto a point; "
+        "effectors[0] (right_palm_site) aims (task = 'look_at'); expected 'look_at' or 'mink'",
     ),
     ("[[effectors]]", "[[effectors]]\n[[effectors.x]]", "effectors[0].x: unknown key; expected"),
     ('[[targets]]\nname = "ball"', '[[targets]]\nnam = "ball"', "targets[0].nam: unknown key"),

@@ -299,9 +299,10 @@ def chain_reach(chain: Chain) -> tuple[NDArray[np.float64], float]:
 
     The base is the first joint's anchor; the reach is the length of the polyline through
     the distinct joint anchors to the end effector, ``sum |a_{k+1} - a_k| + |p - a_last|``,
-    measured at the home pose (joints are hinges, so these distances never change).
+    measured at the chain's current pose (joints are hinges, so these distances never
+    change); the chain is left as it was.
     """
-    chain.reset()
+    chain.set_q(chain.q)
     anchors, _ = chain.joint_axes()
     pts = [anchors[0]]
     for a in anchors[1:]:
@@ -395,7 +396,7 @@ class SceneRunner:
         for solver, members in self._groups:
             for i in members:
                 self.chains[i].load(d)
-            if len(members) > 1 or callable(getattr(solver, "solve_effectors", None)):
+            if callable(getattr(solver, "solve_effectors", None)):  # several effectors at once
                 goals = [
                     EffectorGoal(
                         self.chains[i], targets[i], self.q[i], self.scene.effectors[i].task

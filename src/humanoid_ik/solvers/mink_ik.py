@@ -297,7 +297,6 @@ class UpperBodyIK:
                 collision_detection_distance=o["detection_distance"],
             )
         self._problems: dict[tuple[tuple[str, bool], ...], _Problem] = {}
-        self._wxyz_xyz = np.empty(7)
         self._err_quat = np.empty((2, 4))
         self._dq = np.zeros(m.nv)
         self._dist = np.empty(0 if self._collision is None else len(self._collision.geom_id_pairs))
@@ -478,10 +477,8 @@ class UpperBodyIK:
                     )
                 self._gaze_task.set_target(tgt.position)
             elif tgt.is_pose:
-                buf = self._wxyz_xyz
-                buf[:4] = tgt.quat
-                buf[4:] = tgt.position
-                self._pose_tasks[name].transform_target_to_world = self._mink.SE3(buf.copy())
+                wxyz_xyz = np.concatenate([tgt.quat, tgt.position])
+                self._pose_tasks[name].transform_target_to_world = self._mink.SE3(wxyz_xyz)
             else:
                 self._position_tasks[name].set_target(tgt.position)
             parsed[name] = tgt
