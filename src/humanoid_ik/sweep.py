@@ -866,10 +866,7 @@ def plot_summary(
     """Three panels comparing solver configurations on every scene and target set:
     success rate, median time per solve [ms] and worst error [m] (means over seeds;
     failed and skipped jobs are left out). Written atomically as PNG; returns the path."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend is left alone
 
     from humanoid_ik.runner import atomic_path
 
