@@ -42,6 +42,21 @@ def _floats(text: str, n: int, what: str) -> list[float]:
     return vals
 
 
+def int_at_least(minimum: int):
+    """An argparse type: an integer >= ``minimum``, else a one-line error."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got '{text}'")
+        return value
+
+    return parse
+
+
 def _names(text: str | None) -> list[str] | None:
     if text is None:
         return None

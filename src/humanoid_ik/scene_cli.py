@@ -12,20 +12,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from humanoid_ik.cli import UsageError
+from humanoid_ik.cli import UsageError, int_at_least
 from humanoid_ik.errors import RenderError
 
 __all__ = ["register"]
 
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got '{text}'") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got '{text}'")
-    return v
+_positive_int = int_at_least(1)
 
 
 def _size(text: str) -> int:

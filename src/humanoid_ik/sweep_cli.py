@@ -13,29 +13,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from humanoid_ik.cli import UsageError, _names
+from humanoid_ik.cli import UsageError, _names, int_at_least
 
 __all__ = ["register"]
 
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got '{text}'") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got '{text}'")
-    return v
-
-
-def _seed(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got '{text}'") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got '{text}'")
-    return v
+_positive_int = int_at_least(1)
+_seed = int_at_least(0)
 
 
 def _bar(total: int, unit: str, desc: str):
