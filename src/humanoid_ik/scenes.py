@@ -677,6 +677,20 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
     return chains
 
 
+def read_toml(
+    path: Path, source: str, error: Callable[[str, str, str], Exception]
+) -> dict[str, Any]:
+    """The TOML document at ``path``; a decoding or reading failure raises
+    ``error(source, "", message)`` (:class:`SceneError`, ``SweepError``)."""
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(source, "", f"not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise error(source, "", f"cannot be read: {exc.strerror or exc}") from None
+
+
 def load_scene(path: str | os.PathLike) -> Scene:
     """Read, validate and check a scene file (or a bundled scene's name) against its model.
 
@@ -686,13 +700,6 @@ def load_scene(path: str | os.PathLike) -> Scene:
     """
     p = find_scene(path)
     source = display_path(p)
-    try:
-        with open(p, "rb") as fh:
-            doc = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(source, "", f"not valid TOML: {exc}") from None
-    except OSError as exc:
-        raise SceneError(source, "", f"cannot be read: {exc.strerror or exc}") from None
-    scene = parse_scene(doc, source, p.parent)
+    scene = parse_scene(read_toml(p, source, SceneError), source, p.parent)
     check_scene(scene)
     return scene

@@ -42,7 +42,6 @@ import json
 import math
 import os
 import time
-import tomllib
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -451,18 +450,11 @@ def load_sweep(path: str | os.PathLike) -> Sweep:
         SweepError: the file is missing or not TOML, or any value is wrong; the message
             names the file, the key and what was expected.
     """
-    from humanoid_ik.scenes import display_path
+    from humanoid_ik.scenes import display_path, read_toml
 
     p = Path(path)
     source = display_path(p)
-    try:
-        with open(p, "rb") as fh:
-            doc = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(source, "", f"not valid TOML: {exc}") from None
-    except OSError as exc:
-        raise SweepError(source, "", f"cannot be read: {exc.strerror or exc}") from None
-    return parse_sweep(doc, source, p.parent)
+    return parse_sweep(read_toml(p, source, SweepError), source, p.parent)
 
 
 # ----------------------------------------------------------------------------- one job
