@@ -325,15 +325,19 @@ def model_cameras(model: mujoco.MjModel) -> list[str]:
 
 # ----------------------------------------------------------------------------- parsing
 class _Reader:
-    """Typed access to a parsed TOML document, failing with file + key + expectation."""
+    """Typed access to a parsed TOML document, failing with file + key + expectation
+    (as ``error(file, key, message)``: a :class:`SceneError` here, a ``SweepError`` for
+    sweep files)."""
+
+    error: Callable[[str, str, str], HumanoidIKError] = SceneError
 
     def __init__(self, source: str):
         self.source = source
 
-    def fail(self, key: str, message: str) -> SceneError:
-        return SceneError(self.source, key, message)
+    def fail(self, key: str, message: str) -> HumanoidIKError:
+        return type(self).error(self.source, key, message)
 
-    def expect(self, key: str, expected: str, got: Any) -> SceneError:
+    def expect(self, key: str, expected: str, got: Any) -> HumanoidIKError:
         return self.fail(key, f"expected {expected}, got {show_value(got)}")
 
     def table(self, key: str, value: Any) -> dict[str, Any]:
@@ -342,9 +346,11 @@ class _Reader:
         return value
 
     def keys(
-        self, prefix: str, table: Mapping[str, Any], allowed: Mapping[str, str], required=()
-    ) -> None:
-        """Unknown keys, then missing required ones. ``allowed`` maps key -> expectation."""
+        self, prefix: str, table: Any, allowed: Mapping[str, str], required=()
+    ) -> dict[str, Any]:
+        """``table`` once checked: a table, no unknown key, every required one present.
+        ``allowed`` maps key -> expectation."""
+        table = self.table(prefix, table)
         for k in table:
             if k not in allowed:
                 raise self.fail(
@@ -353,6 +359,7 @@ class _Reader:
         for k in required:
             if k not in table:
                 raise self.fail(_join(prefix, k), f"missing; expected {allowed[k]}")
+        return table
 
     def call(self, prefix: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """``fn(*args)``, with a :class:`TrajectoryError` turned into a SceneError."""

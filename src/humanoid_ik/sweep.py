@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from humanoid_ik.errors import HumanoidIKError, SweepError, show_value
+from humanoid_ik.scenes import _Reader as _SceneReader
 
 __all__ = [
     "COLUMNS",
@@ -223,31 +224,10 @@ _TARGETS = {
 }
 
 
-class _Reader:
-    """Typed access to the parsed TOML, failing with file + key + expectation."""
+class _Reader(_SceneReader):
+    """The scene files' reader, failing with :class:`SweepError`, and the sweep's types."""
 
-    def __init__(self, source: str):
-        self.source = source
-
-    def fail(self, key: str, message: str) -> SweepError:
-        return SweepError(self.source, key, message)
-
-    def expect(self, key: str, expected: str, got: Any) -> SweepError:
-        return self.fail(key, f"expected {expected}, got {show_value(got)}")
-
-    def keys(self, prefix: str, table: Any, allowed: Mapping[str, str], required=()) -> dict:
-        if not isinstance(table, dict):
-            raise self.expect(prefix, "a table", table)
-        for k in table:
-            if k not in allowed:
-                raise self.fail(
-                    f"{prefix}.{k}" if prefix else k,
-                    f"unknown key; expected one of {', '.join(sorted(allowed))}",
-                )
-        for k in required:
-            if k not in table:
-                raise self.fail(f"{prefix}.{k}" if prefix else k, f"missing; expected {allowed[k]}")
-        return table
+    error = SweepError
 
     def integer(self, key: str, value: Any, low: int) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
@@ -542,10 +522,8 @@ def _run_scene(job: Job) -> dict[str, Any]:
     }
 
 
-def run_job(job: Job) -> dict[str, Any]:
-    """Run one job and return its record (keys :data:`COLUMNS`). Never raises: an
-    exception becomes ``status = "failed"`` with ``error = "Type: message"`` and the
-    traceback under ``traceback``."""
+def _record(job: Job) -> dict[str, Any]:
+    """A record (keys :data:`COLUMNS`) holding the job's parameters, results empty."""
     record: dict[str, Any] = dict.fromkeys(COLUMNS)
     record.update(
         id=job.id,
@@ -556,6 +534,14 @@ def run_job(job: Job) -> dict[str, Any]:
         options=job.options_dict,
         seed=job.seed,
     )
+    return record
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """Run one job and return its record (keys :data:`COLUMNS`). Never raises: an
+    exception becomes ``status = "failed"`` with ``error = "Type: message"`` and the
+    traceback under ``traceback``."""
+    record = _record(job)
     t0 = time.perf_counter()
     try:
         record.update(_run_scene(job) if job.kind == "scene" else _run_targets(job))
@@ -568,18 +554,8 @@ def run_job(job: Job) -> dict[str, Any]:
 
 def _failed(job: Job, exc: BaseException) -> dict[str, Any]:
     """The record of a job whose worker died (the exception came from the executor)."""
-    record: dict[str, Any] = dict.fromkeys(COLUMNS)
-    record.update(
-        id=job.id,
-        kind=job.kind,
-        name=job.name,
-        solver=job.solver,
-        config=job.config,
-        options=job.options_dict,
-        seed=job.seed,
-        status="failed",
-        error=f"{type(exc).__name__}: {exc}",
-    )
+    record = _record(job)
+    record.update(status="failed", error=f"{type(exc).__name__}: {exc}")
     return record
 
 
