@@ -187,20 +187,30 @@ class GazeTask(_BufferedTask):
             raise TargetError(f"gaze target must be 3 finite numbers, got {np.asarray(point)!r}")
         self.target = p.copy()
 
-    def _update(self, configuration: mink.Configuration) -> None:
-        """Fill ``_e`` and ``_J`` at the configuration's kinematics (scalar arithmetic for
-        the 3-vectors, one ``(3, 6) @ (6, nv)`` product for the Jacobian)."""
+    def _forward_and_offset(
+        self, d: mujoco.MjData
+    ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The site's forward axis ``f`` in the world and the offset ``target - site`` [m],
+        as scalars (the 3-vectors are cheaper in plain floats than in numpy)."""
         if self.target is None:
             raise mink.TargetNotSet(self.__class__.__name__)
-        m, d = configuration.model, configuration.data
         sid = self.site_id
         R = d.site_xmat[sid]
         a0, a1, a2 = self.axis
-        f0 = R[0] * a0 + R[1] * a1 + R[2] * a2
-        f1 = R[3] * a0 + R[4] * a1 + R[5] * a2
-        f2 = R[6] * a0 + R[7] * a1 + R[8] * a2
+        f = (
+            R[0] * a0 + R[1] * a1 + R[2] * a2,
+            R[3] * a0 + R[4] * a1 + R[5] * a2,
+            R[6] * a0 + R[7] * a1 + R[8] * a2,
+        )
         p, t = d.site_xpos[sid], self.target
-        r0, r1, r2 = t[0] - p[0], t[1] - p[1], t[2] - p[2]
+        return f, (t[0] - p[0], t[1] - p[1], t[2] - p[2])
+
+    def _update(self, configuration: mink.Configuration) -> None:
+        """Fill ``_e`` and ``_J`` at the configuration's kinematics (scalar arithmetic for
+        the 3-vectors, one ``(3, 6) @ (6, nv)`` product for the Jacobian)."""
+        m, d = configuration.model, configuration.data
+        sid = self.site_id
+        (f0, f1, f2), (r0, r1, r2) = self._forward_and_offset(d)
         n = max(math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), 1e-12)
         d0, d1, d2 = r0 / n, r1 / n, r2 / n
         e = self._e
@@ -220,17 +230,7 @@ class GazeTask(_BufferedTask):
         """``(theta [rad], miss [m])``: the angle between the axis and the target direction,
         and the distance from the target to the gaze ray (the distance to the site when
         the target is behind it)."""
-        if self.target is None:
-            raise mink.TargetNotSet(self.__class__.__name__)
-        d = configuration.data
-        sid = self.site_id
-        R = d.site_xmat[sid]
-        a0, a1, a2 = self.axis
-        f0 = R[0] * a0 + R[1] * a1 + R[2] * a2
-        f1 = R[3] * a0 + R[4] * a1 + R[5] * a2
-        f2 = R[6] * a0 + R[7] * a1 + R[8] * a2
-        p, t = d.site_xpos[sid], self.target
-        v0, v1, v2 = t[0] - p[0], t[1] - p[1], t[2] - p[2]
+        (f0, f1, f2), (v0, v1, v2) = self._forward_and_offset(configuration.data)
         dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
         if dist < 1e-12:
             return 0.0, 0.0
