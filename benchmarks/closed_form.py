@@ -21,9 +21,9 @@ import time
 import numpy as np
 
 from humanoid_ik import Chain
-from humanoid_ik.bench import make_targets
-from humanoid_ik.rotations import rotation_log
-from humanoid_ik.solvers.closed_form import ClosedForm, solve_batch
+from humanoid_ik.core.rotations import rotation_log
+from humanoid_ik.experiments.bench import make_targets
+from humanoid_ik.solvers.analytic.closed_form import ClosedForm, solve_batch
 
 
 def single(chain: Chain, targets, repeats: int) -> dict:

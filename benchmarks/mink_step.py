@@ -19,9 +19,9 @@ import time
 
 import numpy as np
 
-from humanoid_ik.rotations import axis_angle_matrix, mat_to_quat
-from humanoid_ik.solvers.mink_ik import UpperBodyIK
-from humanoid_ik.types import Target
+from humanoid_ik.core.rotations import axis_angle_matrix, mat_to_quat
+from humanoid_ik.core.types import Target
+from humanoid_ik.solvers.mink.solver import UpperBodyIK
 
 
 def targets_at(t: float) -> dict[str, object]:

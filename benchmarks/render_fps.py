@@ -4,7 +4,7 @@ In one process and at one frame size, alternating rounds of:
 
 - **renderer alone**: ``mujoco.Renderer.update_scene`` + ``render`` on the scene's poses
   (the joint values of each frame are computed beforehand and set outside the timing);
-- **pipeline**: :func:`humanoid_ik.render.render_scene` on the same scene and frames:
+- **pipeline**: :func:`humanoid_ik.outputs.render.render_scene` on the same scene and frames:
   move targets, solve, ``mj_forward``, metrics, markers and trails, render, and hand the
   frame to the MP4 encoder thread (per-frame loop time), plus the whole run including
   set-up and writing every output (end to end).
@@ -28,9 +28,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco  # noqa: E402
 
-from humanoid_ik.render import render_scene, select_backend  # noqa: E402
-from humanoid_ik.runner import SceneRunner  # noqa: E402
-from humanoid_ik.scenes import load_scene  # noqa: E402
+from humanoid_ik.config.scene import load_scene  # noqa: E402
+from humanoid_ik.outputs.render import render_scene, select_backend  # noqa: E402
+from humanoid_ik.run.runner import SceneRunner  # noqa: E402
 
 
 def renderer_alone(model, poses, width, height, camera) -> list[float]:

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 from humanoid_ik import Chain
-from humanoid_ik.bench import run_bench
+from humanoid_ik.experiments.bench import run_bench
 
 
 def main(argv: list[str] | None = None) -> int:

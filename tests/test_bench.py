@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from humanoid_ik import Chain, SolverError
-from humanoid_ik.bench import make_targets, run_bench
+from humanoid_ik.experiments.bench import make_targets, run_bench
 
 from .chains import CCD_XML, model
 

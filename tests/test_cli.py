@@ -11,7 +11,7 @@ import pytest
 
 from humanoid_ik import Chain
 from humanoid_ik.cli import main
-from humanoid_ik.rotations import mat_to_quat
+from humanoid_ik.core.rotations import mat_to_quat
 
 
 def _run(capsys, *argv):

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from humanoid_ik import Chain, SolverError, Target, TargetError, make_solver
-from humanoid_ik.bench import run_bench
 from humanoid_ik.cli import main
-from humanoid_ik.rotations import mat_to_quat, rotation_log
-from humanoid_ik.solvers.closed_form import (
+from humanoid_ik.core.rotations import mat_to_quat, rotation_log
+from humanoid_ik.experiments.bench import run_bench
+from humanoid_ik.solvers.analytic.closed_form import (
     ClosedForm,
     arm_geometry,
     solutions,

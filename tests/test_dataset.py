@@ -9,9 +9,9 @@ import pytest
 
 from humanoid_ik import Chain
 from humanoid_ik.cli import main
-from humanoid_ik.dataset import BLOCK, FORMAT, read_dataset, write_dataset
+from humanoid_ik.core.rotations import quat_to_mat
 from humanoid_ik.errors import DatasetError
-from humanoid_ik.rotations import quat_to_mat
+from humanoid_ik.experiments.dataset import BLOCK, FORMAT, read_dataset, write_dataset
 
 
 def _sha(path) -> str:

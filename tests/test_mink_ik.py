@@ -27,16 +27,16 @@ from humanoid_ik import (
     make_solver,
     solve,
 )
-from humanoid_ik.bench import make_targets
-from humanoid_ik.rotations import mat_to_quat, rotation_log
-from humanoid_ik.solvers.mink_ext import (
+from humanoid_ik.core.rotations import mat_to_quat, rotation_log
+from humanoid_ik.experiments.bench import make_targets
+from humanoid_ik.solvers.mink.ext import (
     CollisionLimit,
     GazeTask,
     JointRangeLimit,
     JointVelocityLimit,
     PositionTask,
 )
-from humanoid_ik.solvers.mink_ik import (
+from humanoid_ik.solvers.mink.solver import (
     DEFAULT_COLLISION_PAIRS,
     MinkSolver,
     UpperBodyIK,

@@ -20,10 +20,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from humanoid_ik import render as render_mod
 from humanoid_ik.cli import main
+from humanoid_ik.config.scene import bundled_scenes, load_scene
 from humanoid_ik.errors import RenderError
-from humanoid_ik.render import (
+from humanoid_ik.outputs import render as render_mod
+from humanoid_ik.outputs.render import (
     MARKER_RADIUS,
     FrameRenderer,
     VideoWriter,
@@ -32,8 +33,7 @@ from humanoid_ik.render import (
     render_scene,
     select_backend,
 )
-from humanoid_ik.runner import SceneRunner
-from humanoid_ik.scenes import bundled_scenes, load_scene
+from humanoid_ik.run.runner import SceneRunner
 
 W, H, N = 160, 120, 6
 REPO = Path(__file__).resolve().parents[1]
@@ -268,7 +268,7 @@ def test_failed_render_leaves_no_video(tmp_path, monkeypatch):
     """A run that fails at frame 3 (not Ctrl-C) raises and leaves no MP4 under its final
     name and no temporary file; an earlier video there is kept."""
     from humanoid_ik.errors import SolverError
-    from humanoid_ik.runner import SceneRunner
+    from humanoid_ik.run.runner import SceneRunner
 
     folder = tmp_path / "c"
     folder.mkdir()

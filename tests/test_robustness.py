@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from humanoid_ik import Chain, HumanoidIKError, Target, make_solver
-from humanoid_ik.rotations import mat_to_quat
+from humanoid_ik.core.rotations import mat_to_quat
 
 from .chains import model
 

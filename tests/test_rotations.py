@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from humanoid_ik.rotations import (
+from humanoid_ik.core.rotations import (
     axis_angle_matrix,
     decompose_three_axes,
     hinge_angle_between,

@@ -13,19 +13,19 @@ import mujoco
 import numpy as np
 import pytest
 
-from humanoid_ik.chain import Chain
+from humanoid_ik.config.scene import SolverSpec, bundled_scenes, load_scene
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.types import EffectorGoal
 from humanoid_ik.errors import HumanoidIKError, SceneError
-from humanoid_ik.runner import (
+from humanoid_ik.outputs.atomic import atomic_path, write_json, write_text
+from humanoid_ik.run.runner import (
     ON_TARGET_DISTANCE,
-    EffectorGoal,
     SceneRunner,
-    atomic_path,
     chain_reach,
     run_scene,
 )
-from humanoid_ik.scenes import SolverSpec, bundled_scenes, load_scene
 from humanoid_ik.solvers import SOLVERS
-from humanoid_ik.solvers.dls import DLS
+from humanoid_ik.solvers.jacobian.dls import DLS
 
 SHOULDER_R = np.array([0.0, -0.19, 1.40])
 ARM_REACH = 0.30 + 0.25 + 0.08  # upper arm + forearm + wrist to palm site [m]
@@ -187,8 +187,8 @@ def test_csv_and_json_round_trip(tmp_path, runs):
     """The CSV has one row per frame and effector with the documented columns; the JSON
     holds the scene, the summary and the same samples."""
     m = runs["both_hands"]
-    c = m.write_csv(tmp_path / "m.csv")
-    j = m.write_json(tmp_path / "m.json")
+    c = write_text(tmp_path / "m.csv", m.csv_text())
+    j = write_json(tmp_path / "m.json", m.to_dict())
     rows = list(csv.DictReader(c.open()))
     assert len(rows) == 2 * len(m)
     assert rows[1]["effector"] == "left_palm_site" and rows[1]["frame"] == "0"

@@ -10,8 +10,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from humanoid_ik import HumanoidIKError
-from humanoid_ik.runner import run_scene
-from humanoid_ik.scenes import bundled_scenes_dir, load_scene
+from humanoid_ik.config.scene import bundled_scenes_dir, load_scene
+from humanoid_ik.run.runner import run_scene
 
 BASE = tomllib.loads((bundled_scenes_dir() / "circle.toml").read_text())
 

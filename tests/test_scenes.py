@@ -11,8 +11,7 @@ from pathlib import Path
 import pytest
 
 from humanoid_ik.cli import main
-from humanoid_ik.errors import SceneError
-from humanoid_ik.scenes import (
+from humanoid_ik.config.scene import (
     RenderSpec,
     Scene,
     SolverSpec,
@@ -23,8 +22,9 @@ from humanoid_ik.scenes import (
     find_scene,
     load_scene,
 )
+from humanoid_ik.errors import SceneError
+from humanoid_ik.motion.trajectories import MOTIONS
 from humanoid_ik.solvers import SOLVERS
-from humanoid_ik.trajectories import MOTIONS
 
 GOOD = """
 name = "probe"
@@ -387,8 +387,8 @@ def test_broken_model_is_a_scene_error(tmp_path):
 
 def test_check_scene_of_a_python_built_scene():
     """A Scene built in Python is checked too; messages name it <scene 'name'>."""
-    from humanoid_ik.scenes import EffectorSpec
-    from humanoid_ik.trajectories import Circle, TargetTrack
+    from humanoid_ik.config.scene import EffectorSpec
+    from humanoid_ik.motion.trajectories import Circle, TargetTrack
 
     sc = Scene(
         name="py",

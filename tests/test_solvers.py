@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from humanoid_ik import Chain, SolverError, Target, TargetError, make_solver
-from humanoid_ik.rotations import mat_to_quat, rotation_log
+from humanoid_ik.core.rotations import mat_to_quat, rotation_log
 
 from .chains import SMALL_ARM_XML, model
 

@@ -10,7 +10,7 @@ import pytest
 
 from humanoid_ik.cli import main
 from humanoid_ik.errors import SweepError
-from humanoid_ik.sweep import (
+from humanoid_ik.experiments.sweep import (
     TIMING_COLUMNS,
     Job,
     import_ray,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from humanoid_ik.errors import TrajectoryError
-from humanoid_ik.trajectories import (
+from humanoid_ik.motion.trajectories import (
     MOTIONS,
     Circle,
     FigureEight,
@@ -226,7 +226,7 @@ def test_orientation_rocks_about_the_axis():
     # q * conj(q0) is the rocking rotation: angle 0.3 about +z
     w0, x0, y0, z0 = o.quat
     conj = np.array([w0, -x0, -y0, -z0])
-    from humanoid_ik.trajectories import _quat_mul
+    from humanoid_ik.motion.trajectories import _quat_mul
 
     d = _quat_mul(q, conj)
     assert 2 * math.acos(min(1.0, abs(d[0]))) == pytest.approx(0.3, abs=1e-9)

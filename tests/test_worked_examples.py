@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from humanoid_ik import Chain, look_at, make_solver
-from humanoid_ik.rotations import rotation_between
-from humanoid_ik.solvers.two_link import law_of_cosines, polar_angles
+from humanoid_ik.core.rotations import rotation_between
+from humanoid_ik.solvers.analytic.two_link import law_of_cosines, polar_angles
 
 from .chains import CCD_XML, WORKSHEET_XML, model
 

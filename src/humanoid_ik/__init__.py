@@ -1,7 +1,10 @@
 """humanoid_ik: inverse kinematics for humanoid arms on MuJoCo."""
 
-from humanoid_ik.api import solve
-from humanoid_ik.chain import DEFAULT_SITE, Chain, bundled_model_path, load_model
+from humanoid_ik.config.scene import Scene, load_scene
+from humanoid_ik.core.chain import DEFAULT_SITE, Chain
+from humanoid_ik.core.models import bundled_model_path, load_model
+from humanoid_ik.core.rotations import look_at
+from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.errors import (
     ChainError,
     HumanoidIKError,
@@ -14,12 +17,9 @@ from humanoid_ik.errors import (
     TrajectoryError,
     UnsupportedJointError,
 )
-from humanoid_ik.render import render_scene
-from humanoid_ik.rotations import look_at
-from humanoid_ik.runner import SceneRunner, run_scene
-from humanoid_ik.scenes import Scene, load_scene
-from humanoid_ik.solvers import SOLVERS, make_solver
-from humanoid_ik.types import IKResult, Target
+from humanoid_ik.outputs.render import render_scene
+from humanoid_ik.run.runner import SceneRunner, run_scene
+from humanoid_ik.solvers import SOLVERS, make_solver, solve
 
 __version__ = "0.1.0"
 

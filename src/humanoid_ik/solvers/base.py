@@ -10,9 +10,9 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from humanoid_ik.chain import Chain
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.errors import SolverError, choices
-from humanoid_ik.types import IKResult, Target
 
 __all__ = ["Solver", "pose_error"]
 

@@ -8,10 +8,10 @@ from typing import Any, ClassVar
 import mujoco
 import numpy as np
 
-from humanoid_ik.chain import Chain
-from humanoid_ik.rotations import hinge_angle_between
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.rotations import hinge_angle_between
+from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.solvers.base import Solver
-from humanoid_ik.types import IKResult, Target
 
 __all__ = ["CCD"]
 

@@ -8,10 +8,10 @@ from typing import Any, ClassVar
 import mujoco
 import numpy as np
 
-from humanoid_ik.chain import Chain
-from humanoid_ik.rotations import AXES, hinge_angle_between
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.rotations import AXES, hinge_angle_between
+from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.solvers.base import Solver
-from humanoid_ik.types import IKResult, Target
 
 __all__ = ["LookAt"]
 
@@ -20,7 +20,7 @@ class LookAt(Solver):
     """Turn the chain's hinges so the site's ``forward_axis`` points at the target.
 
     The direction to reach is the forward column of the look-at frame
-    (:func:`humanoid_ik.rotations.look_at`), ``(target - site) / |target - site|``. Each
+    (:func:`humanoid_ik.core.rotations.look_at`), ``(target - site) / |target - site|``. Each
     sweep turns every hinge (tip to root) by the angle that takes the current forward
     axis closest to that direction about the hinge, re-reading FK from MuJoCo, until the
     angle between them is below ``rot_tol`` (for a yaw/pitch neck this converges in a

@@ -1,0 +1,65 @@
+"""``humanoid-ik bench``: success rate and time per solve on random targets."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from humanoid_ik.cli.args import add_chain_args, chain_from_args, check_writable, names
+from humanoid_ik.cli.progress import progress_bar
+from humanoid_ik.core.models import display_model
+from humanoid_ik.experiments.bench import TASKS, run_bench
+from humanoid_ik.outputs.atomic import write_json
+
+__all__ = ["register"]
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    chain = chain_from_args(args)
+    if args.json:
+        check_writable(Path(args.json))
+    bar = progress_bar(args.n, "solve")
+
+    def progress(name: str, done: int, total: int) -> None:
+        if bar is None:
+            return
+        if bar.total != total or bar.desc != name:
+            bar.reset(total=total)
+            bar.set_description(name)
+        bar.update(1)
+
+    try:
+        report = run_bench(
+            chain,
+            args.task,
+            names(args.solvers),
+            args.n,
+            args.seed,
+            display_model(args.model),
+            progress,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    print(
+        f"model {report.model}  site {report.site}  task {report.task}  n {report.n}  "
+        f"seed {report.seed}"
+    )
+    print(report.table())
+    if args.json:
+        write_json(args.json, report.to_dict(), indent=2)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add ``bench`` to the ``humanoid-ik`` subcommands."""
+    p = subparsers.add_parser("bench", help="success rate and time per solve on random targets")
+    add_chain_args(p)
+    p.add_argument("--task", default="position", choices=list(TASKS))
+    p.add_argument("--solvers", metavar="a,b", help="solvers to run (default: all)")
+    p.add_argument("--n", type=int, default=500, help="number of targets (default: 500)")
+    p.add_argument("--seed", type=int, default=0, help="target seed (default: 0)")
+    p.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    p.set_defaults(func=_cmd_bench)

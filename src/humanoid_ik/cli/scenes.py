@@ -1,0 +1,159 @@
+"""The ``render`` and ``scenes`` subcommands of ``humanoid-ik``.
+
+``humanoid-ik render SCENE [--out DIR] [--solver NAME] [--frames N] [--width W]
+[--height H] [--camera NAME] [--fps F] [--gif] [--no-video]`` films a scene;
+``humanoid-ik scenes`` lists the bundled scenes, one line each. Heavy imports
+(MuJoCo's renderer, matplotlib) happen only when a command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from humanoid_ik.cli.args import UsageError, int_at_least
+from humanoid_ik.cli.progress import progress_bar
+from humanoid_ik.errors import RenderError
+
+__all__ = ["register"]
+
+_positive_int = int_at_least(1)
+
+
+def _size(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an even integer >= 16, got '{text}'") from None
+    if v < 16 or v % 2:
+        raise argparse.ArgumentTypeError(f"expected an even integer >= 16, got '{text}'")
+    return v
+
+
+def _fps(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'") from None
+    if not (v > 0 and v <= 1000):
+        raise argparse.ArgumentTypeError(f"expected a number > 0 and <= 1000, got '{text}'")
+    return v
+
+
+def _cmd_scenes(args: argparse.Namespace) -> int:
+    from humanoid_ik.config.scene import bundled_scenes, bundled_scenes_dir, load_scene
+
+    paths = bundled_scenes()
+    if not paths:
+        raise RenderError(f"no bundled scenes in '{bundled_scenes_dir()}'")
+    rows = []
+    for p in paths:
+        sc = load_scene(p)
+        solvers = sorted({sc.solver_for(e).name for e in sc.effectors})
+        rows.append(
+            (
+                sc.name,
+                "+".join(solvers),
+                f"{sc.duration:g} s",
+                sc.render.camera,
+                sc.description,
+            )
+        )
+    widths = [max(len(r[k]) for r in rows) for k in range(4)]
+    for r in rows:
+        print("  ".join(r[k].ljust(widths[k]) for k in range(4)) + "  " + r[4])
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from humanoid_ik.config.scene import check_scene, load_scene
+    from humanoid_ik.outputs.render import check_output_dir, render_scene, select_backend
+
+    scene = load_scene(args.scene)
+    if args.solver is not None:
+        from humanoid_ik.solvers import SOLVERS
+
+        if args.solver not in SOLVERS:
+            raise UsageError(f"--solver '{args.solver}' unknown; solvers: {', '.join(SOLVERS)}")
+    if args.camera is not None:
+        from humanoid_ik.core.models import load_model, model_cameras
+
+        cams = model_cameras(load_model(scene.model))
+        if args.camera not in cams:
+            raise UsageError(f"--camera '{args.camera}' not in model; cameras: {', '.join(cams)}")
+    scene = scene.with_overrides(
+        solver=args.solver,
+        fps=args.fps,
+        frames=args.frames,
+        width=args.width,
+        height=args.height,
+        camera=args.camera,
+        gif=True if args.gif else None,
+    )
+    check_scene(scene)
+    out = Path(args.out) if args.out else Path("renders") / scene.name
+    check_output_dir(out)
+    backend = select_backend()
+    if backend.note:
+        print(f"humanoid-ik: note: {backend.note}", file=sys.stderr)
+
+    bar = progress_bar(scene.n_frames if scene.n_frames > 1 else 0, "frame", scene.name)
+
+    def progress(done: int, total: int) -> None:
+        if bar is not None:
+            bar.update(done - bar.n)
+
+    try:
+        result = render_scene(scene, out, video=not args.no_video, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    m = result.metrics
+    loop = sum(result.frame_times)
+    fps = result.frames / loop if loop > 0 else 0.0
+    print(
+        f"{scene.name}: {result.frames} frame(s) {scene.render.width}x{scene.render.height} "
+        f"camera {scene.render.camera}, {fps:.1f} frames/s ({result.backend.name})"
+    )
+    for s in m.summary():
+        err = s["max_position_error_reachable_m"]
+        share = s["on_target_when_reachable"]
+        err_txt = "no reachable frame" if err is None else f"max error {err * 1e3:.3f} mm"
+        share_txt = "" if share is None else f", on target {100 * share:.0f}%"
+        print(
+            f"  {s['effector']} -> {s['target']} ({s['solver']}): reachable "
+            f"{s['reachable_frames']}/{s['frames']}, {err_txt}{share_txt}, median solve "
+            f"{(s['median_solve_time_s'] or 0) * 1e3:.2f} ms"
+        )
+    for f in result.files():
+        print(f"wrote {f}")
+    if result.interrupted:
+        print(f"humanoid-ik: interrupted after {result.frames} frame(s)", file=sys.stderr)
+        return 130
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add ``render`` and ``scenes`` to the ``humanoid-ik`` subcommands."""
+    p = subparsers.add_parser(
+        "render",
+        help="run a scene and film it (MP4, PNG frames, contact sheet, metrics)",
+        description="Run a scene file (or a bundled scene by name) and write its video, "
+        "frames, contact sheet and metrics into renders/<scene>/ (or --out).",
+    )
+    p.add_argument("scene", metavar="SCENE", help="a scene .toml file or a bundled scene name")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: renders/<scene>)")
+    p.add_argument("--solver", metavar="NAME", help="replace the scene's solver")
+    p.add_argument("--frames", type=_positive_int, metavar="N", help="render N frames")
+    p.add_argument("--width", type=_size, metavar="W", help="frame width [px]")
+    p.add_argument("--height", type=_size, metavar="H", help="frame height [px]")
+    p.add_argument("--camera", metavar="NAME", help="a named camera of the model")
+    p.add_argument("--fps", type=_fps, metavar="F", help="frames per second")
+    p.add_argument("--gif", action="store_true", help="also write an animated GIF")
+    p.add_argument("--no-video", action="store_true", help="skip the MP4")
+    p.set_defaults(func=_cmd_render)
+
+    p = subparsers.add_parser("scenes", help="list the bundled scenes, one line each")
+    p.set_defaults(func=_cmd_scenes)

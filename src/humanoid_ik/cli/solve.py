@@ -1,0 +1,70 @@
+"""``humanoid-ik solve``: solve one target and print the joint values."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+import numpy as np
+
+from humanoid_ik.cli.args import add_chain_args, chain_from_args, floats, options
+from humanoid_ik.core.models import display_model
+from humanoid_ik.core.types import Target
+from humanoid_ik.solvers import SOLVERS, solve
+
+__all__ = ["register"]
+
+
+def _cmd_solve(args: argparse.Namespace) -> int:
+    target = Target(
+        floats(args.target, 3, "--target"),
+        None if args.quat is None else floats(args.quat, 4, "--quat"),
+    )
+    chain = chain_from_args(args)
+    result = solve(chain, target, args.solver, **options(args.option))
+    if args.json:
+        doc = {
+            "model": display_model(args.model),
+            "site": chain.ee_name,
+            "target": {
+                "position": target.position.tolist(),
+                "quat": None if target.quat is None else target.quat.tolist(),
+            },
+            **result.to_dict(chain.joint_names),
+        }
+        print(json.dumps(doc, indent=2))
+    else:
+        width = max(len(n) for n in chain.joint_names)
+        print(f"solver {result.solver}: {result.status} after {result.iterations} iteration(s)")
+        for name, v in zip(chain.joint_names, result.q, strict=True):
+            print(f"  {name:<{width}}  {v:+.6f} rad  {np.degrees(v):+9.3f} deg")
+        print(f"position error     {result.position_error:.3e} m")
+        if result.orientation_error is not None:
+            print(f"orientation error  {result.orientation_error:.3e} rad")
+        if result.message:
+            print(f"note: {result.message}")
+    return 0 if result.converged else 1
+
+
+def register(subparsers: Any) -> None:
+    """Add ``solve`` to the ``humanoid-ik`` subcommands."""
+    p = subparsers.add_parser("solve", help="solve one target and print the joint values")
+    p.add_argument("--target", required=True, metavar="X,Y,Z", help="target position [m]")
+    p.add_argument("--quat", metavar="W,X,Y,Z", help="target orientation (unit quaternion)")
+    p.add_argument(
+        "--solver",
+        default="dls",
+        choices=list(SOLVERS),
+        metavar="NAME",
+        help=f"one of: {', '.join(SOLVERS)} (default: dls)",
+    )
+    add_chain_args(p)
+    p.add_argument(
+        "--option",
+        action="append",
+        metavar="KEY=VALUE",
+        help="solver option, repeatable (e.g. method=angle_axis)",
+    )
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=_cmd_solve)

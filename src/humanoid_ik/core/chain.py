@@ -1,0 +1,299 @@
+"""A kinematic chain of hinge joints on any MuJoCo model.
+
+MuJoCo is the single source of truth for where things are: the chain writes ``qpos``,
+runs ``mj_kinematics`` and reads ``site_xpos``/``site_xmat`` (or ``xpos``/``xmat`` for a
+body end effector) and ``mj_jacSite``/``mj_jacBody``. The chain owns a scratch ``MjData``;
+the caller's ``MjData`` is read with :meth:`Chain.load` and only written by
+:meth:`Chain.apply`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from humanoid_ik.core.models import home_qpos, load_model, reset_to_home
+from humanoid_ik.errors import (
+    ChainError,
+    NameNotFoundError,
+    TargetError,
+    UnsupportedJointError,
+)
+
+__all__ = ["Chain", "DEFAULT_SITE"]
+
+DEFAULT_SITE = "right_palm_site"
+_JOINT_TYPE_NAMES = {
+    mujoco.mjtJoint.mjJNT_FREE: "free",
+    mujoco.mjtJoint.mjJNT_BALL: "ball",
+    mujoco.mjtJoint.mjJNT_SLIDE: "slide",
+    mujoco.mjtJoint.mjJNT_HINGE: "hinge",
+}
+
+
+def _names(model: mujoco.MjModel, objtype: mujoco.mjtObj, count: int) -> list[str]:
+    out = []
+    for i in range(count):
+        name = mujoco.mj_id2name(model, objtype, i)
+        if name:
+            out.append(name)
+    return out
+
+
+class Chain:
+    """Hinge joints from a root to an end-effector site or body.
+
+    Args:
+        model: an ``MjModel``, an MJCF path, or ``None`` for the bundled humanoid.
+        site: end-effector site name (default ``right_palm_site`` when ``body`` is unset).
+        joints: joint names; by default the hinge joints on the path from the end
+            effector's body to the root, stopping at a free joint.
+        body: end-effector body name, instead of a site.
+
+    Raises:
+        ModelError, NameNotFoundError, UnsupportedJointError, ChainError.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel | str | os.PathLike | None = None,
+        site: str | None = None,
+        joints: Sequence[str] | None = None,
+        *,
+        body: str | None = None,
+    ):
+        self.model = load_model(model)
+        m = self.model
+        if site is not None and body is not None:
+            raise ChainError("give an end-effector site or a body, not both")
+        if body is not None:
+            bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body)
+            if bid < 0:
+                raise NameNotFoundError("body", body, _names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody))
+            self.ee_kind, self.ee_id, self.ee_name = "body", bid, body
+            ee_body = bid
+        else:
+            site = DEFAULT_SITE if site is None else site
+            sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
+            if sid < 0:
+                raise NameNotFoundError("site", site, _names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite))
+            self.ee_kind, self.ee_id, self.ee_name = "site", sid, site
+            ee_body = int(m.site_bodyid[sid])
+        path_joints = self._path_joints(ee_body)
+        if joints is None:
+            ids = self._default_joints(path_joints)
+        else:
+            ids = self._named_joints(joints, path_joints)
+        if not ids:
+            raise ChainError(f"no hinge joint moves {self.ee_kind} '{self.ee_name}'")
+        ids.sort(key=lambda j: int(m.jnt_dofadr[j]))
+        self.joint_ids = np.array(ids, dtype=np.int64)
+        self.joint_names = [
+            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in ids
+        ]
+        self.qpos_adr = m.jnt_qposadr[self.joint_ids].astype(np.int64)
+        self.dof_adr = m.jnt_dofadr[self.joint_ids].astype(np.int64)
+        limited = m.jnt_limited[self.joint_ids].astype(bool)
+        rng = m.jnt_range[self.joint_ids]
+        self.lower = np.where(limited, rng[:, 0], -np.inf)
+        self.upper = np.where(limited, rng[:, 1], np.inf)
+        self.data = mujoco.MjData(m)
+        self.q_home = self._home()
+        self.reset()
+        # (6, nv) Jacobian buffer; rows 0-2 and 3-5 are C-contiguous views for mj_jacSite
+        self._jac = np.zeros((6, m.nv))
+        self._jacp, self._jacr = self._jac[:3], self._jac[3:]
+        dofs = self.dof_adr
+        contiguous = bool(np.all(np.diff(dofs) == 1))
+        # chain columns: a view of the buffer when the dofs are contiguous, else a copy
+        self._dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
+        self._J = self._jac[:, self._dof_slice] if contiguous else np.zeros((6, self.n))
+        self._quat_buf = np.zeros((2, 4))
+
+    # ----------------------------------------------------------------- structure
+    def _path_joints(self, body: int) -> list[int]:
+        """Joints of the bodies from ``body`` up to the world, tip first."""
+        m = self.model
+        out: list[int] = []
+        b = body
+        while b > 0:
+            start, num = int(m.body_jntadr[b]), int(m.body_jntnum[b])
+            out.extend(range(start + num - 1, start - 1, -1))
+            b = int(m.body_parentid[b])
+        return out
+
+    def _joint_desc(self, j: int) -> str:
+        name = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+        return f"'{name}' ({_JOINT_TYPE_NAMES[int(self.model.jnt_type[j])]})"
+
+    def _default_joints(self, path: list[int]) -> list[int]:
+        ids = []
+        for j in path:
+            jt = int(self.model.jnt_type[j])
+            if jt == mujoco.mjtJoint.mjJNT_FREE:
+                break
+            if jt != mujoco.mjtJoint.mjJNT_HINGE:
+                raise UnsupportedJointError(
+                    f"joint {self._joint_desc(j)} on the path of {self.ee_kind} "
+                    f"'{self.ee_name}' is not a hinge; chains support hinge joints only "
+                    "(pass --joints / joints= to choose the hinges)"
+                )
+            ids.append(j)
+        return ids
+
+    def _named_joints(self, names: Sequence[str], path: list[int]) -> list[int]:
+        m = self.model
+        if isinstance(names, str):
+            names = [names]
+        ids = []
+        all_names = _names(m, mujoco.mjtObj.mjOBJ_JOINT, m.njnt)
+        for name in names:
+            j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if j < 0:
+                raise NameNotFoundError("joint", name, all_names)
+            if int(m.jnt_type[j]) != mujoco.mjtJoint.mjJNT_HINGE:
+                raise UnsupportedJointError(
+                    f"joint {self._joint_desc(j)} is not a hinge; chains support hinge joints only"
+                )
+            if j not in path:
+                on_path = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, k) for k in path]
+                raise ChainError(
+                    f"joint '{name}' does not move {self.ee_kind} '{self.ee_name}'; joints on "
+                    f"its path: {', '.join(n for n in on_path if n) or '(none)'}"
+                )
+            if j in ids:
+                raise ChainError(f"joint '{name}' is listed twice")
+            ids.append(j)
+        return ids
+
+    def _home(self) -> NDArray[np.float64]:
+        """Chain joints at the ``home`` keyframe if there is one, else ``qpos0``, inside ranges."""
+        return self.clip(home_qpos(self.model)[self.qpos_adr])
+
+    def reset(self) -> None:
+        """Scratch data to the home pose: the ``home`` key (or ``qpos0``) for every joint."""
+        reset_to_home(self.model, self.data)
+        self.data.qpos[self.qpos_adr] = self.q_home
+        mujoco.mj_kinematics(self.model, self.data)
+
+    # ----------------------------------------------------------------- properties
+    @property
+    def n(self) -> int:
+        """Number of joints in the chain."""
+        return int(self.joint_ids.shape[0])
+
+    @property
+    def q(self) -> NDArray[np.float64]:
+        """Chain joint values in the scratch data ``(n,)`` [rad]."""
+        return self.data.qpos[self.qpos_adr].copy()
+
+    @property
+    def position(self) -> NDArray[np.float64]:
+        """End-effector position ``(3,)`` in [m] from the last kinematics pass (a view)."""
+        if self.ee_kind == "site":
+            return self.data.site_xpos[self.ee_id]
+        return self.data.xpos[self.ee_id]
+
+    @property
+    def rotation(self) -> NDArray[np.float64]:
+        """End-effector rotation ``(3, 3)`` from the last kinematics pass."""
+        if self.ee_kind == "site":
+            return self.data.site_xmat[self.ee_id].reshape(3, 3)
+        return self.data.xmat[self.ee_id].reshape(3, 3)
+
+    # ----------------------------------------------------------------- MuJoCo I/O
+    def check_q(self, q: ArrayLike) -> NDArray[np.float64]:
+        """``q`` as a finite float64 ``(n,)`` array.
+
+        Raises:
+            TargetError: wrong shape or NaN/inf.
+        """
+        arr = np.asarray(q, dtype=np.float64)
+        if arr.shape != (self.n,):
+            raise TargetError(f"joint vector must have shape ({self.n},), got {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise TargetError(f"joint vector {arr.tolist()} is not finite")
+        return arr
+
+    def set_q(self, q: ArrayLike) -> None:
+        """Write chain joints into the scratch ``qpos`` and run ``mj_kinematics``."""
+        self.data.qpos[self.qpos_adr] = q
+        mujoco.mj_kinematics(self.model, self.data)
+
+    def fk(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """End-effector position ``(3,)`` [m] and rotation ``(3, 3)`` at ``q``, from MuJoCo."""
+        self.set_q(self.check_q(q))
+        return self.position.copy(), self.rotation.copy()
+
+    def jacobian(self, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Geometric Jacobian ``(6, n)`` of the end effector: rows 0-2 linear velocity
+        [m/rad], rows 3-5 angular velocity, both in the world frame (``mj_jacSite``)."""
+        if q is not None:
+            self.set_q(self.check_q(q))
+        return self._jacobian().copy()
+
+    def _jacobian(self) -> NDArray[np.float64]:
+        """Fills the reused ``(6, n)`` buffer; ``mj_kinematics`` must be current."""
+        m, d = self.model, self.data
+        mujoco.mj_comPos(m, d)
+        if self.ee_kind == "site":
+            mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.ee_id)
+        else:
+            mujoco.mj_jacBody(m, d, self._jacp, self._jacr, self.ee_id)
+        if self._dof_slice is None:
+            np.take(self._jac, self.dof_adr, axis=1, out=self._J)
+        return self._J
+
+    def joint_axes(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World anchors ``(n, 3)`` and unit axes ``(n, 3)`` of the chain's hinges."""
+        return (self.data.xanchor[self.joint_ids].copy(), self.data.xaxis[self.joint_ids].copy())
+
+    def load(self, data: mujoco.MjData) -> None:
+        """Copy the caller's ``qpos`` (every joint) into the scratch data. ``data`` is only read.
+
+        Raises:
+            ChainError: ``data`` belongs to a model of another size.
+        """
+        if data.qpos.shape != self.data.qpos.shape:
+            raise ChainError(
+                f"MjData has nq={data.qpos.shape[0]}, the chain's model has nq={self.model.nq}"
+            )
+        self.data.qpos[:] = data.qpos
+        self.data.mocap_pos[:] = data.mocap_pos
+        self.data.mocap_quat[:] = data.mocap_quat
+        mujoco.mj_kinematics(self.model, self.data)
+
+    def apply(self, q: ArrayLike, data: mujoco.MjData) -> None:
+        """Write chain joints ``q`` into the caller's ``data`` and run ``mj_forward`` on it."""
+        qq = self.check_q(q)
+        data.qpos[self.qpos_adr] = qq
+        mujoco.mj_forward(self.model, data)
+
+    # ----------------------------------------------------------------- limits
+    def clip(self, q: ArrayLike) -> NDArray[np.float64]:
+        """``q`` moved inside the joint ranges."""
+        return np.clip(np.asarray(q, dtype=np.float64), self.lower, self.upper)
+
+    def within_limits(self, q: ArrayLike, tol: float = 1e-9) -> bool:
+        """True when every joint lies inside its range (with ``tol`` [rad])."""
+        arr = np.asarray(q)
+        return bool(np.all(arr >= self.lower - tol) and np.all(arr <= self.upper + tol))
+
+    def limit_margin(self, q: ArrayLike) -> float:
+        """Smallest distance [rad] of any joint to its nearest range end (negative outside)."""
+        arr = np.asarray(q)
+        return float(np.min(np.minimum(arr - self.lower, self.upper - arr)))
+
+    def random_q(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """A uniform joint vector inside the ranges (unlimited joints in [-pi, pi])."""
+        lo = np.where(np.isfinite(self.lower), self.lower, -math.pi)
+        hi = np.where(np.isfinite(self.upper), self.upper, math.pi)
+        return rng.uniform(lo, hi)
+
+    def __repr__(self) -> str:
+        return f"Chain({self.ee_kind}='{self.ee_name}', joints=[{', '.join(self.joint_names)}])"

@@ -1,0 +1,131 @@
+"""Value types: the IK target and the result every solver returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from humanoid_ik.errors import TargetError
+
+if TYPE_CHECKING:
+    from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.rotations import normalize_quat, quat_to_mat
+
+__all__ = ["EffectorGoal", "IKResult", "STATUSES", "Target"]
+
+STATUSES = ("converged", "max_iterations", "unreachable")
+MAX_COORDINATE = 1e6  # [m]: farther targets are input mistakes (and overflow squares)
+
+
+@dataclass(frozen=True)
+class Target:
+    """A position target ``(3,)`` in [m], optionally with a wxyz orientation ``(4,)``.
+
+    Raises:
+        TargetError: wrong shape, NaN/inf, a coordinate beyond 1e6 m, or a zero /
+            non-unit quaternion.
+    """
+
+    position: NDArray[np.float64]
+    quat: NDArray[np.float64] | None = None
+    rotation: NDArray[np.float64] | None = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        p = np.array(self.position, dtype=np.float64)
+        if p.shape != (3,):
+            raise TargetError(f"target position must have 3 values (x, y, z), got shape {p.shape}")
+        if not np.all(np.isfinite(p)):
+            raise TargetError(f"target position {p.tolist()} is not finite")
+        if np.any(np.abs(p) > MAX_COORDINATE):
+            raise TargetError(
+                f"target position {p.tolist()} lies beyond {MAX_COORDINATE:g} m; "
+                "expected coordinates in metres"
+            )
+        p.setflags(write=False)
+        object.__setattr__(self, "position", p)
+        if self.quat is None:
+            object.__setattr__(self, "rotation", None)
+            return
+        q = normalize_quat(self.quat)
+        q.setflags(write=False)
+        R = quat_to_mat(q)
+        R.setflags(write=False)
+        object.__setattr__(self, "quat", q)
+        object.__setattr__(self, "rotation", R)
+
+    @classmethod
+    def of(cls, target: Target | ArrayLike, quat: ArrayLike | None = None) -> Target:
+        """A ``Target`` from a ``Target`` or a position (and an optional quaternion)."""
+        if isinstance(target, Target):
+            return target if quat is None else cls(target.position, quat)
+        return cls(np.asarray(target, dtype=np.float64), quat)
+
+    @property
+    def is_pose(self) -> bool:
+        """True when the target includes an orientation."""
+        return self.quat is not None
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """What a solver did.
+
+    Attributes:
+        q: joint values ``(n,)`` [rad], in the chain's joint order.
+        converged: error below the solver's tolerances.
+        iterations: iterations (sweeps for CCD) over all restarts.
+        position_error: distance from the end effector to the target [m] (for look-at,
+            the distance from the target to the gaze ray).
+        orientation_error: angle between achieved and target orientation [rad] (for
+            look-at, between the forward axis and the target direction); ``None`` when
+            the task had no orientation.
+        status: ``converged``, ``max_iterations`` or ``unreachable``.
+        solver: the solver's name.
+        message: why it did not converge, or ``""``.
+    """
+
+    q: NDArray[np.float64]
+    converged: bool
+    iterations: int
+    position_error: float
+    orientation_error: float | None
+    status: str
+    solver: str = ""
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        if self.status not in STATUSES:
+            raise ValueError(f"status '{self.status}' unknown; statuses: {', '.join(STATUSES)}")
+        q = np.array(self.q, dtype=np.float64)
+        q.setflags(write=False)
+        object.__setattr__(self, "q", q)
+
+    def to_dict(self, joint_names: list[str] | None = None) -> dict[str, Any]:
+        """A JSON-ready dict (joint values by name when ``joint_names`` is given)."""
+        q = [float(v) for v in self.q]
+        return {
+            "solver": self.solver,
+            "status": self.status,
+            "converged": self.converged,
+            "iterations": self.iterations,
+            "position_error_m": self.position_error,
+            "orientation_error_rad": self.orientation_error,
+            "q": dict(zip(joint_names, q, strict=True)) if joint_names else q,
+            "message": self.message,
+        }
+
+
+class EffectorGoal(NamedTuple):
+    """One effector's task, as handed to a solver that moves several effectors at once."""
+
+    chain: Chain
+    """The effector's chain (all goals share one ``MjModel``)."""
+    target: Target
+    """Where the site must go (``reach``) or what it must look at (``look_at``)."""
+    q0: NDArray[np.float64]
+    """Warm start ``(n,)`` [rad]: the chain's joints at the previous frame."""
+    task: str
+    """``reach`` or ``look_at`` (aim the site's x axis at the target)."""

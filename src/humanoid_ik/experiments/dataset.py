@@ -1,0 +1,232 @@
+"""IK datasets: many (target pose, joint solution) pairs from the closed-form solver.
+
+Each pair is made from a uniform random in-range joint vector ``q_s``: the target is the
+end effector's pose at ``q_s`` (MuJoCo FK), and the stored solution is what
+:func:`~humanoid_ik.solvers.analytic.closed_form.solve_batch` returns for that pose, started from
+the chain's home posture (the feasible swivel closest to home's). Where the closed form
+finds no solution (not expected: every target is reachable inside the ranges) ``q_s``
+itself is stored and ``closed_form_ok`` is False for that row.
+
+Randomness comes in fixed blocks of :data:`BLOCK` samples, block ``k`` drawn from
+``numpy.random.default_rng([seed, k])``, and every block is solved as a whole, so a seed
+and ``n`` always give the same arrays whatever the chunk size or the order in which
+chunks are made. The file is a standard ``.npz`` (``numpy.load`` opens it) with fixed
+zip timestamps, so it is byte-for-byte the same too:
+
+=================  ==========  ==========================================================
+member             shape       meaning
+=================  ==========  ==========================================================
+``positions``      ``(N, 3)``  target positions [m], world frame
+``quats``          ``(N, 4)``  target orientations, unit wxyz with ``w >= 0``
+``q``              ``(N, n)``  joint solutions [rad], in ``meta["joints"]`` order
+``closed_form_ok`` ``(N,)``    True where ``q`` comes from the closed form
+``meta``           ``()``      JSON text: format, model, site, joints, seed, n, block, ...
+=================  ==========  ==========================================================
+
+Chunks are written as they are made into raw files beside the output and packed into the
+``.npz`` at the end, which is then renamed into place (never half written); memory stays
+at a few chunks whatever ``n`` is.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.models import display_model
+from humanoid_ik.core.rotations import mat_to_quat
+from humanoid_ik.errors import DatasetError, HumanoidIKError
+
+__all__ = [
+    "BLOCK",
+    "FORMAT",
+    "Dataset",
+    "make_block",
+    "read_dataset",
+    "write_dataset",
+]
+
+BLOCK = 4096
+"""Samples per seeded block (fixed: changing it changes every dataset)."""
+FORMAT = "humanoid_ik.dataset/1"
+_ARRAYS = ("positions", "quats", "q", "closed_form_ok")
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
+
+
+class Dataset(NamedTuple):
+    """A dataset read back by :func:`read_dataset`."""
+
+    positions: NDArray[np.float64]
+    """Target positions ``(N, 3)`` [m]."""
+    quats: NDArray[np.float64]
+    """Target orientations ``(N, 4)``, wxyz."""
+    q: NDArray[np.float64]
+    """Joint solutions ``(N, n)`` [rad]."""
+    closed_form_ok: NDArray[np.bool_]
+    """``(N,)``: True where the closed form gave the solution."""
+    meta: dict[str, Any]
+    """Format, model, site, joint names, seed, n, block and solver."""
+
+
+def make_block(
+    chain: Chain, seed: int, block: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Block ``block`` of the dataset with seed ``seed``: :data:`BLOCK` pairs.
+
+    Returns:
+        ``positions (B, 3)``, ``quats (B, 4)``, ``q (B, n)``, ``ok (B,)``.
+    """
+    from humanoid_ik.solvers.analytic.closed_form import solve_batch
+
+    rng = np.random.default_rng([seed, block])
+    lo = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)
+    hi = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
+    q_s = rng.uniform(lo, hi, size=(BLOCK, chain.n))  # (B, n)
+    positions = np.empty((BLOCK, 3))
+    quats = np.empty((BLOCK, 4))
+    for i in range(BLOCK):
+        p, R = chain.fk(q_s[i])
+        positions[i] = p
+        quats[i] = mat_to_quat(R)
+    chain.reset()
+    q, ok = solve_batch(chain, positions, quats)
+    q = np.where(ok[:, None], q, q_s)
+    return positions, quats, q, ok
+
+
+def write_dataset(
+    path: str | os.PathLike,
+    n: int,
+    seed: int = 0,
+    *,
+    chunk: int = 65536,
+    model: str | os.PathLike | None = None,
+    site: str | None = None,
+    joints: list[str] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Path:
+    """Write ``n`` (target pose, joint solution) pairs to ``path`` (``.npz``).
+
+    Args:
+        path: the output file.
+        n: number of pairs (>= 1).
+        seed: seed (>= 0); the same seed and ``n`` give the same file.
+        chunk: pairs made and written per step (>= 1); does not change the content.
+        model: MJCF path (default: the bundled humanoid).
+        site: end-effector site (default: ``right_palm_site``).
+        joints: the chain's joints (default: the hinges from the site to the root).
+        progress: called ``(done, n)`` after each chunk.
+
+    Returns:
+        ``path``.
+
+    Raises:
+        DatasetError: ``n``, ``seed`` or ``chunk`` out of range, a chain the closed form
+            does not fit, or an output folder that does not exist.
+    """
+    from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+
+    for name, value, low in (("n", n, 1), ("seed", seed, 0), ("chunk", chunk, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise DatasetError(f"{name} must be an integer >= {low}, got {value!r}")
+    out = Path(path)
+    if not out.parent.is_dir():
+        raise DatasetError(f"cannot write '{out}': folder '{out.parent}' does not exist")
+    chain = Chain(model, site, joints)
+    reason = ClosedForm().applicable(chain, True)
+    if reason is not None:
+        raise DatasetError(f"closed_form does not fit chain {chain.ee_name}: {reason}")
+    meta = {
+        "format": FORMAT,
+        "model": display_model(model),
+        "site": chain.ee_name,
+        "joints": list(chain.joint_names),
+        "seed": int(seed),
+        "n": int(n),
+        "block": BLOCK,
+        "solver": "closed_form",
+        "target": "FK of uniform random in-range joints",
+        "quat": "wxyz, w >= 0",
+        "units": {"positions": "m", "q": "rad"},
+    }
+    n, seed = int(n), int(seed)
+    with tempfile.TemporaryDirectory(prefix=f".{out.name}.", dir=out.parent) as tmpdir:
+        raws = {k: open(Path(tmpdir) / f"{k}.raw", "wb") for k in _ARRAYS}  # noqa: SIM115
+        try:
+            cached: tuple[int, tuple] | None = None
+            for a in range(0, n, chunk):
+                b = min(a + chunk, n)
+                parts: list[list[np.ndarray]] = [[] for _ in _ARRAYS]
+                for k in range(a // BLOCK, (b - 1) // BLOCK + 1):
+                    if cached is None or cached[0] != k:
+                        cached = (k, make_block(chain, seed, k))
+                    lo, hi = max(a, k * BLOCK) - k * BLOCK, min(b, (k + 1) * BLOCK) - k * BLOCK
+                    for j, arr in enumerate(cached[1]):
+                        parts[j].append(arr[lo:hi])
+                for key, arrs in zip(_ARRAYS, parts, strict=True):
+                    raws[key].write(np.ascontiguousarray(np.concatenate(arrs)).tobytes())
+                if progress is not None:
+                    progress(b, n)
+        finally:
+            for fh in raws.values():
+                fh.close()
+        shapes = {"positions": (n, 3), "quats": (n, 4), "q": (n, chain.n), "closed_form_ok": (n,)}
+        dtypes = {"closed_form_ok": np.dtype(np.bool_)}
+        tmp_zip = Path(tmpdir) / "out.npz"
+        with zipfile.ZipFile(tmp_zip, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+            for key in _ARRAYS:
+                header = {
+                    "descr": np.lib.format.dtype_to_descr(dtypes.get(key, np.dtype("<f8"))),
+                    "fortran_order": False,
+                    "shape": shapes[key],
+                }
+                with zf.open(_info(f"{key}.npy"), "w", force_zip64=True) as fh:
+                    np.lib.format.write_array_header_2_0(fh, header)
+                    with open(Path(tmpdir) / f"{key}.raw", "rb") as raw:
+                        shutil.copyfileobj(raw, fh, 1 << 20)
+            with zf.open(_info("meta.npy"), "w") as fh:
+                np.lib.format.write_array(fh, np.array(json.dumps(meta, sort_keys=True)))
+        os.replace(tmp_zip, out)
+    return out
+
+
+def _info(name: str) -> zipfile.ZipInfo:
+    info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
+    info.compress_type = zipfile.ZIP_STORED
+    info.external_attr = 0o644 << 16
+    return info
+
+
+def read_dataset(path: str | os.PathLike) -> Dataset:
+    """Read a dataset written by :func:`write_dataset`.
+
+    Raises:
+        DatasetError: the file is missing, not an ``.npz``, or not a humanoid_ik dataset.
+    """
+    p = Path(path)
+    try:
+        with np.load(p, allow_pickle=False) as npz:
+            missing = [k for k in (*_ARRAYS, "meta") if k not in npz.files]
+            if missing:
+                raise DatasetError(
+                    f"'{p}' is not a humanoid_ik dataset: no {', '.join(missing)} in it"
+                )
+            arrays = {k: npz[k] for k in _ARRAYS}
+            meta = json.loads(str(npz["meta"]))
+    except HumanoidIKError:
+        raise
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise DatasetError(f"cannot read dataset '{p}': {exc}") from None
+    if meta.get("format") != FORMAT:
+        raise DatasetError(f"'{p}' has format {meta.get('format')!r}; expected {FORMAT!r}")
+    return Dataset(meta=meta, **arrays)

@@ -1,0 +1,267 @@
+"""Run a scene: per frame move the targets, solve, write ``qpos``, ``mj_forward``, measure.
+
+Per frame ``i`` at ``t = i / fps``:
+
+1. every target moves to ``motion.position(t)`` (and ``orientation.quat_at(t)``);
+2. every effector's solver solves from the joint values of the previous frame (warm
+   start; the first frame starts at the ``home`` keyframe);
+3. the solutions are written into the scene's ``MjData.qpos`` and ``mj_forward`` runs once;
+4. metrics are read from that ``MjData`` (not from the solver): target and achieved
+   position, position and orientation error, iterations, solve time, the nearest
+   joint-limit margin, and whether the target is within reach.
+
+Solvers that move several effectors at once (the hook): a registered solver class with
+a ``solve_effectors(goals)`` method receives every effector that uses it in one call, as
+a sequence of :class:`EffectorGoal`, and returns one
+:class:`~humanoid_ik.core.types.IKResult` per goal, in order. Any other solver is called once
+per effector through ``Solver.solve(chain, target, q0)``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from humanoid_ik.config.scene import EffectorSpec, Scene, SolverSpec, check_scene
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.models import load_model, reset_to_home
+from humanoid_ik.core.types import EffectorGoal, IKResult, Target
+from humanoid_ik.errors import HumanoidIKError, SceneError
+from humanoid_ik.run.metrics import EffectorSample, FrameRecord, Metrics
+
+__all__ = [
+    "ON_TARGET_ANGLE",
+    "ON_TARGET_DISTANCE",
+    "SceneRunner",
+    "chain_reach",
+    "run_scene",
+]
+
+ON_TARGET_DISTANCE = 1e-3
+"""An effector is on target within this distance [m] (look-at: of the gaze ray)."""
+ON_TARGET_ANGLE = 1e-2
+"""... and, for a pose target, within this angle [rad]."""
+
+
+def chain_reach(chain: Chain) -> tuple[NDArray[np.float64], float]:
+    """The chain's base point ``(3,)`` [m] and an upper bound of its reach [m].
+
+    The base is the first joint's anchor; the reach is the length of the polyline through
+    the distinct joint anchors to the end effector, ``sum |a_{k+1} - a_k| + |p - a_last|``,
+    measured at the chain's current pose (joints are hinges, so these distances never
+    change); the chain is left as it was.
+    """
+    chain.set_q(chain.q)
+    anchors, _ = chain.joint_axes()
+    pts = [anchors[0]]
+    for a in anchors[1:]:
+        if float(np.linalg.norm(a - pts[-1])) > 1e-9:
+            pts.append(a)
+    pts.append(chain.position.copy())
+    reach = float(sum(np.linalg.norm(b - a) for a, b in zip(pts[:-1], pts[1:], strict=True)))
+    return anchors[0].copy(), reach
+
+
+class SceneRunner:
+    """Runs a scene frame by frame on its own ``MjModel``/``MjData``.
+
+    Args:
+        scene: the scene.
+        model: a compiled model to use instead of compiling ``scene.model``.
+
+    Raises:
+        SceneError: the scene does not fit the model (see :func:`check_scene`).
+
+    Attributes:
+        model, data: MuJoCo's model and the data the frames are written to.
+        chains: one chain per effector.
+    """
+
+    def __init__(self, scene: Scene, model: mujoco.MjModel | None = None):
+        self.scene = scene
+        if model is None:
+            try:
+                model = load_model(scene.model)
+            except HumanoidIKError as exc:
+                raise SceneError(scene.source, "model", str(exc)) from None
+        self.model = model
+        self.chains = check_scene(scene, model)
+        self.data = mujoco.MjData(model)
+        self.specs: list[SolverSpec] = [scene.solver_for(e) for e in scene.effectors]
+        self.targets = [scene.target(e.target) for e in scene.effectors]
+        self._site_ids = [c.ee_id for c in self.chains]
+        self._reach = [chain_reach(c) for c in self.chains]
+        # one solver object per distinct spec; effectors sharing a multi-effector solver
+        # are solved together
+        self._groups: list[tuple[Any, list[int]]] = []
+        by_spec: dict[tuple, int] = {}
+        for i, spec in enumerate(self.specs):
+            key = (spec.name, tuple(sorted((k, repr(v)) for k, v in spec.options.items())))
+            solver = None
+            if key in by_spec:
+                solver = self._groups[by_spec[key]][0]
+            if solver is not None and callable(getattr(solver, "solve_effectors", None)):
+                self._groups[by_spec[key]][1].append(i)
+                continue
+            if solver is None:
+                solver = spec.make()
+                by_spec[key] = len(self._groups)
+            self._groups.append((solver, [i]))
+        self.reset()
+
+    @property
+    def n_frames(self) -> int:
+        """Frames of a full run."""
+        return self.scene.n_frames
+
+    def solver_labels(self) -> list[str]:
+        """Each effector's solver, as ``name`` or ``name(options)``."""
+        return [s.label() for s in self.specs]
+
+    def reset(self) -> None:
+        """Back to the home keyframe (warm starts forgotten)."""
+        m, d = self.model, self.data
+        reset_to_home(m, d)
+        for c in self.chains:
+            d.qpos[c.qpos_adr] = c.q_home
+        mujoco.mj_forward(m, d)
+        self.q = [c.q_home.copy() for c in self.chains]
+
+    def time_of(self, index: int) -> float:
+        """Time of frame ``index`` [s]."""
+        return index / self.scene.fps
+
+    def step(self, index: int) -> FrameRecord:
+        """Solve and apply frame ``index`` (warm-started from the previous call)."""
+        t = self.time_of(index)
+        m, d = self.model, self.data
+        targets = [trk.at(t) for trk in self.targets]
+        results: list[IKResult | None] = [None] * len(self.chains)
+        times = [0.0] * len(self.chains)
+        for solver, members in self._groups:
+            for i in members:
+                self.chains[i].load(d)
+            if callable(getattr(solver, "solve_effectors", None)):  # several effectors at once
+                goals = [
+                    EffectorGoal(
+                        self.chains[i], targets[i], self.q[i], self.scene.effectors[i].task
+                    )
+                    for i in members
+                ]
+                t0 = time.perf_counter()
+                out = list(solver.solve_effectors(goals))
+                dt = (time.perf_counter() - t0) / len(members)
+                if len(out) != len(members):
+                    raise HumanoidIKError(
+                        f"solver '{solver.name}' returned {len(out)} results for "
+                        f"{len(members)} effectors"
+                    )
+                for i, res in zip(members, out, strict=True):
+                    results[i], times[i] = res, dt
+            else:
+                i = members[0]
+                t0 = time.perf_counter()
+                res = solver.solve(self.chains[i], targets[i], self.q[i])
+                times[i] = time.perf_counter() - t0
+                results[i] = res
+        for i, res in enumerate(results):
+            assert res is not None
+            q = self.chains[i].clip(res.q)
+            self.q[i] = q
+            d.qpos[self.chains[i].qpos_adr] = q
+        mujoco.mj_forward(m, d)
+        samples = tuple(
+            self._measure(i, targets[i], results[i], times[i])  # type: ignore[arg-type]
+            for i in range(len(self.chains))
+        )
+        return FrameRecord(index, t, samples)
+
+    def _measure(self, i: int, target: Target, res: IKResult, dt: float) -> EffectorSample:
+        eff: EffectorSpec = self.scene.effectors[i]
+        d = self.data
+        sid = self._site_ids[i]
+        p = d.site_xpos[sid].copy()
+        R = d.site_xmat[sid].reshape(3, 3)
+        pd = target.position
+        orient: float | None = None
+        if eff.task == "look_at":
+            v = pd - p
+            dist = float(np.linalg.norm(v))
+            fwd = R[:, 0]
+            ang = math.atan2(float(np.linalg.norm(np.cross(fwd, v))), float(fwd @ v))
+            miss = dist * math.sin(ang) if ang < math.pi / 2 else dist
+            achieved = p + dist * fwd
+            err, orient = miss, ang
+            reachable = bool(res.converged)
+        else:
+            achieved = p
+            err = float(np.linalg.norm(pd - p))
+            if target.quat is not None:
+                q_site = np.empty(4)
+                mujoco.mju_mat2Quat(q_site, R.reshape(9))
+                dot = min(1.0, abs(float(q_site @ target.quat)))
+                orient = 2.0 * math.acos(dot)
+            base, reach = self._reach[i]
+            reachable = float(np.linalg.norm(pd - base)) <= reach
+        on = err <= ON_TARGET_DISTANCE and (
+            orient is None or eff.task == "look_at" or orient <= ON_TARGET_ANGLE
+        )
+        return EffectorSample(
+            effector=eff.site,
+            target_name=eff.target,
+            task=eff.task,
+            target=np.array(pd),
+            achieved=achieved,
+            position_error=err,
+            orientation_error=orient,
+            iterations=int(res.iterations),
+            solve_time=dt,
+            limit_margin=self.chains[i].limit_margin(self.q[i]),
+            reachable=reachable,
+            on_target=bool(on),
+            status=res.status,
+        )
+
+    def run(
+        self,
+        frames: int | None = None,
+        on_frame: Callable[[FrameRecord], None] | None = None,
+    ) -> Metrics:
+        """Run ``frames`` frames (default: the whole scene) from the home pose.
+
+        Args:
+            frames: how many frames.
+            on_frame: called after each frame (with ``self.data`` at that frame).
+
+        Returns:
+            The metrics of every frame run. Ctrl-C (``KeyboardInterrupt``) stops the run
+            early: the frames so far are returned with ``interrupted`` set.
+        """
+        n = self.n_frames if frames is None else frames
+        self.reset()
+        metrics = Metrics(self.scene, self.solver_labels())
+        try:
+            for i in range(n):
+                rec = self.step(i)
+                metrics.append(rec)
+                if on_frame is not None:
+                    on_frame(rec)
+        except KeyboardInterrupt:
+            metrics.interrupted = True
+        return metrics
+
+
+def run_scene(scene: Scene | str | os.PathLike, frames: int | None = None) -> Metrics:
+    """Run a scene (a :class:`Scene`, a scene file or a bundled scene's name) without
+    rendering and return its metrics."""
+    from humanoid_ik.config.scene import load_scene
+
+    sc = scene if isinstance(scene, Scene) else load_scene(scene)
+    return SceneRunner(sc).run(frames)

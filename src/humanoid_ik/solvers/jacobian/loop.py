@@ -1,0 +1,154 @@
+"""The loop shared by the Jacobian family: error, Jacobian, step, clamp to ranges.
+
+Per iteration: ``mj_kinematics`` -> task error ``e`` (3 or 6 rows) -> ``mj_comPos`` +
+``mj_jacSite`` -> ``dq = step(J, e)`` (recomputed without the joints that sit at a range
+end and would be pushed past it) -> optional null-space bias toward ``home`` -> step
+capped at ``max_step`` -> ``q`` clipped to the joint ranges. Buffers are allocated once
+per solve and MuJoCo's arrays are read through views, so the loop allocates little.
+
+A run that stalls (less than 1 % progress in ``stall_window`` iterations) or hits
+``max_iterations`` restarts, up to ``restarts`` times, from the poses of the chain's seed
+library (:mod:`humanoid_ik.solvers.jacobian.seeds`) whose FK lies nearest the target, alternating
+with seeded random in-range poses. The best pose seen is returned.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import abstractmethod
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.jacobian.seeds import seed_library
+
+__all__ = ["JacobianSolver"]
+
+
+class JacobianSolver(Solver):
+    """Base of ``jacobian_transpose``, ``pseudoinverse`` and ``dls``."""
+
+    supports_orientation: ClassVar[bool] = True
+    loop_defaults: ClassVar[dict[str, Any]] = {
+        "max_iterations": 100,
+        "restarts": 20,
+        "max_step": 0.8,
+        "nullspace_gain": 0.0,
+        "stall_window": 8,
+        "seed": 0,
+        "library_seeds": 8,
+    }
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.defaults = {**JacobianSolver.loop_defaults, **cls.defaults}
+
+    def _prepare(self, chain: Chain, rows: int) -> None:
+        """Per-solve set-up of the step rule (before the loop)."""
+
+    @abstractmethod
+    def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Joint step ``(n,)`` reducing ``e`` ``(rows,)`` given ``J`` ``(rows, n)``."""
+
+    def _nullspace(self, J: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Projector ``(n, n)`` onto the null space of ``J``: ``I - J+ J``."""
+        return np.eye(J.shape[1]) - np.linalg.pinv(J, rcond=1e-6) @ J
+
+    def starts(self, chain: Chain, q0: NDArray[np.float64], target: Target | None = None):
+        """``q0``, then library poses nearest ``target`` alternating with seeded random ones
+        (the library's nearest poses may share one blocked basin; random ones do not)."""
+        yield q0.copy()
+        rng = np.random.default_rng(self.seed)
+        near: Any = ()
+        if self.restarts and target is not None and self.library_seeds:
+            near = seed_library(chain).nearest(target, self.library_seeds)
+        used = 0
+        for k in range(self.restarts):
+            if k % 2 == 0 and used < len(near):
+                used += 1
+                yield near[used - 1].copy()
+            else:
+                yield chain.random_q(rng)
+
+    def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+        m, d = chain.model, chain.data
+        qadr, lo, hi = chain.qpos_adr, chain.lower, chain.upper
+        pose = target.quat is not None
+        rows = 6 if pose else 3
+        J = chain._J[:rows]
+        e = np.zeros(6)
+        ev, e3, er = e[:rows], e[:3], e[3:]
+        quat, dv = np.zeros(4), np.zeros(3)
+        tp, tq = target.position, target.quat
+        site = chain.ee_kind == "site"
+        xpos = d.site_xpos[chain.ee_id] if site else d.xpos[chain.ee_id]
+        xmat = d.site_xmat[chain.ee_id] if site else d.xmat[chain.ee_id]
+        jacp, jacr, eid = chain._jacp, chain._jacr, chain.ee_id
+        jac_fn = mujoco.mj_jacSite if site else mujoco.mj_jacBody
+        gather = chain._dof_slice is None
+        tol, rot_tol = self.tol, self.rot_tol
+        max_step, gain = self.max_step, self.nullspace_gain
+        window = max(2, self.stall_window)
+        norm3, kinematics, com_pos = mujoco.mju_norm3, mujoco.mj_kinematics, mujoco.mj_comPos
+        mat2quat, sub_quat, rotate = mujoco.mju_mat2Quat, mujoco.mju_subQuat, mujoco.mju_mulMatVec3
+        self._prepare(chain, rows)
+
+        best_q, best_cost = q0.copy(), math.inf
+        iterations = 0
+        er_n = 0.0
+        for q in self.starts(chain, q0, target):
+            history = [math.inf] * window
+            d.qpos[qadr] = q
+            for it in range(self.max_iterations + 1):
+                kinematics(m, d)
+                np.subtract(tp, xpos, out=e3)
+                ep = norm3(e3)
+                if pose:
+                    mat2quat(quat, xmat)
+                    sub_quat(dv, tq, quat)  # in the site frame
+                    rotate(er, xmat, dv)  # to the world frame
+                    er_n = norm3(er)
+                cost = ep + 0.1 * er_n
+                if cost < best_cost:
+                    best_cost = cost
+                    best_q[:] = q
+                if ep < tol and er_n < rot_tol:  # kinematics are current: no second FK
+                    return IKResult(
+                        q, True, iterations + it, ep, er_n if pose else None, "converged", self.name
+                    )
+                slot = it % window
+                if it == self.max_iterations or (it >= window and cost > 0.99 * history[slot]):
+                    iterations += it
+                    break
+                history[slot] = cost
+                com_pos(m, d)
+                jac_fn(m, d, jacp, jacr, eid)
+                if gather:
+                    np.take(chain._jac, chain.dof_adr, axis=1, out=chain._J)
+                dq = self._step(J, ev)
+                # joints at a range end that the step pushes outward leave the task
+                blocked = ((q <= lo) & (dq < 0.0)) | ((q >= hi) & (dq > 0.0))
+                if blocked.any():
+                    J[:, blocked] = 0.0
+                    dq = self._step(J, ev)
+                    dq[blocked] = 0.0
+                if gain > 0.0:
+                    dq += self._nullspace(J) @ (gain * (chain.q_home - q))
+                big = max(-dq.min(), dq.max())
+                if big > max_step:
+                    dq *= max_step / big
+                q += dq
+                np.clip(q, lo, hi, out=q)
+                d.qpos[qadr] = q
+        return self._result(
+            chain,
+            target,
+            best_q,
+            iterations,
+            message=self.gave_up(),
+        )

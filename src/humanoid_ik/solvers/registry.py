@@ -1,0 +1,81 @@
+"""The solvers by name, ``make_solver(name, **options)``, and one-call IK:
+``solve(chain, target, solver=...)`` with the caller's MjData left alone."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+from numpy.typing import ArrayLike
+
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.errors import SolverError, choices
+from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+from humanoid_ik.solvers.analytic.two_link import TwoLink
+from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.ccd import CCD
+from humanoid_ik.solvers.jacobian.dls import DLS
+from humanoid_ik.solvers.jacobian.pseudoinverse import PseudoInverse
+from humanoid_ik.solvers.jacobian.transpose import JacobianTranspose
+from humanoid_ik.solvers.look_at import LookAt
+from humanoid_ik.solvers.mink.solver import MinkSolver
+
+__all__ = ["SOLVERS", "make_solver", "solve"]
+
+SOLVERS: dict[str, type[Solver]] = {
+    cls.name: cls
+    for cls in (TwoLink, CCD, JacobianTranspose, PseudoInverse, DLS, LookAt, MinkSolver, ClosedForm)
+}
+
+
+def make_solver(name: str, **options: Any) -> Solver:
+    """A solver by name with its options.
+
+    Raises:
+        SolverError: unknown name (the valid names are listed) or a bad option.
+    """
+    try:
+        cls = SOLVERS[name]
+    except KeyError:
+        raise SolverError(f"solver '{name}' unknown; solvers: {choices(SOLVERS)}") from None
+    return cls(**options)
+
+
+def solve(
+    chain: Chain,
+    target: Target | ArrayLike,
+    solver: str | Solver = "dls",
+    *,
+    quat: ArrayLike | None = None,
+    q0: ArrayLike | None = None,
+    data: mujoco.MjData | None = None,
+    apply: bool = False,
+    **options: Any,
+) -> IKResult:
+    """Solve IK for ``chain`` toward ``target``.
+
+    Args:
+        chain: the kinematic chain.
+        target: a :class:`Target` or a position ``(3,)`` [m].
+        solver: a solver name (``two_link``, ``ccd``, ``jacobian_transpose``,
+            ``pseudoinverse``, ``dls``, ``look_at``) or a solver object.
+        quat: target orientation, wxyz ``(4,)``, for a position given as an array.
+        q0: start joint values ``(n,)``; default the chain's current ones (those of
+            ``data`` when given).
+        data: the caller's ``MjData``: its ``qpos`` is read (the model's other joints keep
+            their values), and written only when ``apply`` is true and the solve converged.
+        apply: write the converged result into ``data`` (and run ``mj_forward``).
+        **options: solver options, when ``solver`` is a name.
+
+    Raises:
+        HumanoidIKError: a bad target, solver name or option; ``data`` is then unchanged.
+    """
+    tgt = Target.of(target, quat)
+    s = make_solver(solver, **options) if isinstance(solver, str) else solver
+    if data is not None:
+        chain.load(data)
+    result = s.solve(chain, tgt, q0)
+    if apply and data is not None and result.converged:
+        chain.apply(result.q, data)
+    return result
