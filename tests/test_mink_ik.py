@@ -302,7 +302,7 @@ def test_gaze_error_is_the_aim_misalignment():
     task.set_target(p + [-1.0, 0.0, 0.0])
     assert np.linalg.norm(task.compute_error(cfg)) == pytest.approx(2.0)
     task.set_target(p + [1.0, 1.0, 0.0])
-    theta, miss = task.angle(cfg)
+    miss, theta = task.error(cfg)
     assert theta == pytest.approx(math.pi / 4)
     assert np.linalg.norm(task.compute_error(cfg)) == pytest.approx(2 * math.sin(math.pi / 8))
     assert miss == pytest.approx(1.0)  # |(1, 1)| sin 45 deg
@@ -596,4 +596,4 @@ def test_task_parts_refuse_bad_input():
         with pytest.raises(TargetError, match="3 finite numbers"):
             task.set_target([1.0, math.inf, 0.0])
     with pytest.raises(mink.TargetNotSet):
-        gaze.angle(cfg)
+        gaze.error(cfg)

@@ -92,3 +92,15 @@ def test_decompose_unreachable_rotation():
     """Three parallel axes cannot make a rotation about another axis: no solution."""
     z = np.array([0.0, 0, 1])
     assert decompose_three_axes(axis_angle_matrix([1, 0, 0], 0.5), z, z, z) == []
+
+
+def test_hinge_angle_is_zero_for_a_vector_along_the_axis():
+    """A vector along the hinge (up to rounding noise) is not turned: 0, not the angle of
+    the noise."""
+    axis = np.array([0.0, 1.0, 0.0])
+    v = np.array([3e-17, 1.0, -2e-17])  # the y axis after a rotation about y, with rounding
+    assert hinge_angle_between(axis, v, np.array([1.0, 0.2, 0.3])) == 0.0
+    assert hinge_angle_between(axis, np.array([1.0, 0.0, 0.0]), axis * 2.0) == 0.0
+    assert hinge_angle_between(axis, np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, -1.0])) == (
+        pytest.approx(math.pi / 2)
+    )

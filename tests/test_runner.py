@@ -15,11 +15,11 @@ import pytest
 
 from humanoid_ik.config.scene import SolverSpec, bundled_scenes, load_scene
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import ON_TARGET_DISTANCE
 from humanoid_ik.core.types import EffectorGoal
 from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.outputs.atomic import atomic_path, write_json, write_text
 from humanoid_ik.run.runner import (
-    ON_TARGET_DISTANCE,
     SceneRunner,
     chain_reach,
     run_scene,

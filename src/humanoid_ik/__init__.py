@@ -1,5 +1,7 @@
 """humanoid_ik: inverse kinematics for humanoid arms on MuJoCo."""
 
+from importlib.metadata import version
+
 from humanoid_ik.config.scene import Scene, load_scene
 from humanoid_ik.core.chain import DEFAULT_SITE, Chain
 from humanoid_ik.core.models import bundled_model_path, load_model
@@ -21,7 +23,7 @@ from humanoid_ik.outputs.render import render_scene
 from humanoid_ik.run.runner import SceneRunner, run_scene
 from humanoid_ik.solvers import SOLVERS, make_solver, solve
 
-__version__ = "0.1.0"
+__version__ = version("humanoid-ik")
 
 __all__ = [
     "Chain",

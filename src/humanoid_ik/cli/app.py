@@ -11,8 +11,8 @@ import argparse
 import sys
 import traceback
 from collections.abc import Sequence
+from importlib.metadata import version
 
-from humanoid_ik import __version__
 from humanoid_ik.cli import bench, dataset, scenes, solve, sweep
 from humanoid_ik.cli.args import Parser
 from humanoid_ik.errors import HumanoidIKError
@@ -28,7 +28,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="humanoid-ik", description="Inverse kinematics for humanoid arms on MuJoCo."
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
-    parser.add_argument("--version", action="version", version=f"humanoid-ik {__version__}")
+    parser.add_argument(
+        "--version", action="version", version=f"humanoid-ik {version('humanoid-ik')}"
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     for command in _COMMANDS:

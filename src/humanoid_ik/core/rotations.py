@@ -45,14 +45,15 @@ def hinge_angle_between(axis: NDArray, v: NDArray, w: NDArray) -> float:
     """Angle of the rotation about unit ``axis`` that takes ``v`` closest to ``w``.
 
     Both vectors are projected on the plane normal to the axis:
-    ``t = atan2(u . (v_p x w_p), v_p . w_p)``. Returns 0 when either projection vanishes.
+    ``t = atan2(u . (v_p x w_p), v_p . w_p)``. Returns 0 when either projection vanishes
+    (below 1e-9 of its vector's length: a vector along the axis, which no turn moves).
     """
     vp = v - np.dot(v, axis) * axis
     wp = w - np.dot(w, axis) * axis
+    if np.dot(vp, vp) <= 1e-18 * np.dot(v, v) or np.dot(wp, wp) <= 1e-18 * np.dot(w, w):
+        return 0.0
     s = float(np.dot(axis, np.cross(vp, wp)))
     c = float(np.dot(vp, wp))
-    if abs(s) < 1e-300 and abs(c) < 1e-300:
-        return 0.0
     return math.atan2(s, c)
 
 

@@ -9,17 +9,19 @@ orientation error below 0.01 rad for ``pose``) with every joint inside its range
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import on_target
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.core.types import Target
 from humanoid_ik.errors import SolverError, choices
-from humanoid_ik.solvers import SOLVERS, make_solver
+from humanoid_ik.solvers import SOLVERS, Solver, make_solver
 
 __all__ = [
     "BenchRow",
@@ -27,13 +29,12 @@ __all__ = [
     "run_bench",
     "make_targets",
     "TASKS",
-    "POSITION_SUCCESS_M",
-    "ORIENTATION_SUCCESS_RAD",
+    "Trials",
+    "not_reaching",
+    "run_trials",
 ]
 
 TASKS = ("position", "pose")
-POSITION_SUCCESS_M = 1e-3
-ORIENTATION_SUCCESS_RAD = 1e-2
 
 
 @dataclass(frozen=True)
@@ -134,16 +135,50 @@ def run_bench(
     return BenchReport(model_name, chain.ee_name, list(chain.joint_names), task, n, seed, rows)
 
 
-def _bench_one(chain: Chain, name: str, targets: list[Target], pose: bool, progress) -> BenchRow:
-    solver = make_solver(name)
+class Trials(NamedTuple):
+    """One solver's answers to a list of targets, one entry per target."""
+
+    times: NDArray[np.float64]
+    """Wall time of each solve [s] ``(n,)``."""
+    iterations: NDArray[np.float64]
+    """Iterations of each solve ``(n,)``."""
+    position_errors: NDArray[np.float64]
+    """Position error of each answer [m] ``(n,)``."""
+    orientation_errors: NDArray[np.float64]
+    """Orientation error of each answer [rad] ``(n,)`` (NaN for position targets)."""
+    inside: NDArray[np.bool_]
+    """Each answer within the joint ranges ``(n,)``."""
+    success: NDArray[np.bool_]
+    """On target (:func:`~humanoid_ik.core.measures.on_target`) and inside ``(n,)``."""
+
+
+def not_reaching(solver: Solver, chain: Chain, pose: bool) -> str | None:
+    """Why ``solver`` cannot be benchmarked on reaching ``chain``'s targets, or ``None``."""
     reason = solver.applicable(chain, pose)
     if reason is None and not solver.reaches:
-        reason = f"{name} aims an axis at a point; it does not move the site onto targets"
-    if reason is not None:
-        return BenchRow(name, None, None, None, None, None, None, skipped=reason)
-    times = np.empty(len(targets))
-    iters = np.empty(len(targets))
-    max_err, ok, violations = 0.0, 0, 0
+        reason = f"{solver.name} aims an axis at a point; it does not move the site onto targets"
+    return reason
+
+
+def run_trials(
+    chain: Chain,
+    solver: Solver,
+    targets: Sequence[Target],
+    progress: Callable[[int], None] | None = None,
+) -> Trials:
+    """Solve every target from the chain's home pose: THE benchmark loop (the bench and
+    the sweeps' target sets both run it). The chain is left at home.
+
+    Args:
+        chain: the chain.
+        solver: the solver (see :func:`not_reaching` for whether it applies).
+        targets: the targets.
+        progress: called with the number of targets done after each solve.
+    """
+    n = len(targets)
+    times, iters = np.empty(n), np.empty(n)
+    errs, rot_errs = np.empty(n), np.full(n, np.nan)
+    inside, ok = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
     clock = time.perf_counter
     for i, tgt in enumerate(targets):
         chain.reset()
@@ -151,22 +186,36 @@ def _bench_one(chain: Chain, name: str, targets: list[Target], pose: bool, progr
         res = solver.solve(chain, tgt)
         times[i] = clock() - t0
         iters[i] = res.iterations
-        inside = chain.within_limits(res.q)
-        violations += not inside
-        err = res.position_error
-        max_err = max(max_err, err)
-        rot_err = res.orientation_error
-        rot_ok = not pose or (rot_err is not None and rot_err < ORIENTATION_SUCCESS_RAD)
-        ok += err < POSITION_SUCCESS_M and rot_ok and inside
+        errs[i] = res.position_error
+        rot = res.orientation_error
+        if rot is not None:
+            rot_errs[i] = rot
+        inside[i] = chain.within_limits(res.q)
+        if tgt.is_pose and rot is None:
+            ok[i] = False
+        else:
+            ok[i] = inside[i] and on_target(res.position_error, rot if tgt.is_pose else None)
         if progress is not None:
-            progress(name, i + 1, len(targets))
+            progress(i + 1)
     chain.reset()
+    return Trials(times, iters, errs, rot_errs, inside, ok)
+
+
+def _bench_one(
+    chain: Chain, name: str, targets: list[Target], pose: bool, progress: Any
+) -> BenchRow:
+    solver = make_solver(name)
+    reason = not_reaching(solver, chain, pose)
+    if reason is not None:
+        return BenchRow(name, None, None, None, None, None, None, skipped=reason)
+    tick = None if progress is None else (lambda done: progress(name, done, len(targets)))
+    tr = run_trials(chain, solver, targets, tick)
     return BenchRow(
         solver=name,
-        success_rate=ok / len(targets),
-        median_ms=float(np.median(times) * 1e3),
-        p95_ms=float(np.percentile(times, 95) * 1e3),
-        mean_iterations=float(np.mean(iters)),
-        max_position_error_m=max_err,
-        limit_violations=violations,
+        success_rate=float(tr.success.mean()),
+        median_ms=float(np.median(tr.times) * 1e3),
+        p95_ms=float(np.percentile(tr.times, 95) * 1e3),
+        mean_iterations=float(np.mean(tr.iterations)),
+        max_position_error_m=float(tr.position_errors.max()),
+        limit_violations=int((~tr.inside).sum()),
     )

@@ -93,8 +93,6 @@ TIMING_COLUMNS = ("median_solve_ms", "wall_s")
 """Wall-clock columns: the only ones that differ between two runs of the same sweep."""
 KINDS = ("scene", "targets")
 _TASKS = ("position", "pose")
-_SUCCESS_M = 1e-3
-_SUCCESS_RAD = 1e-2
 _RESULTS = "jobs"
 
 
@@ -452,40 +450,26 @@ def _nan_median(values: Sequence[float]) -> float | None:
 
 def _run_targets(job: Job) -> dict[str, Any]:
     from humanoid_ik.core.chain import Chain
-    from humanoid_ik.experiments.bench import make_targets
+    from humanoid_ik.experiments.bench import make_targets, not_reaching, run_trials
     from humanoid_ik.solvers import make_solver
 
     p = job.param
     chain = Chain(job.location, p["site"], p["joints"])
     pose = p["task"] == "pose"
     solver = make_solver(job.solver, **job.options_dict)
-    reason = solver.applicable(chain, pose)
-    if reason is None and not solver.reaches:
-        reason = f"{job.solver} aims an axis at a point; it does not move the site onto targets"
+    reason = not_reaching(solver, chain, pose)
     if reason is not None:
         return {"status": "skipped", "error": reason}
     targets = make_targets(chain, p["n"], job.seed, pose)
-    times, errs, rot_errs, ok = [], [], [], 0
-    clock = time.perf_counter
-    for tgt in targets:
-        chain.reset()
-        t0 = clock()
-        res = solver.solve(chain, tgt)
-        times.append(clock() - t0)
-        errs.append(res.position_error)
-        rot = res.orientation_error
-        rot_errs.append(rot)
-        rot_ok = not pose or (rot is not None and rot < _SUCCESS_RAD)
-        ok += res.position_error < _SUCCESS_M and rot_ok and chain.within_limits(res.q)
-    chain.reset()
+    tr = run_trials(chain, solver, targets)
     return {
         "status": "ok",
         "samples": len(targets),
-        "success_rate": ok / len(targets),
-        "max_error_m": _nan_max(errs),
-        "median_error_m": _nan_median(errs),
-        "max_orientation_error_rad": _nan_max(rot_errs) if pose else None,
-        "median_solve_ms": float(np.median(times) * 1e3),
+        "success_rate": float(tr.success.mean()),
+        "max_error_m": _nan_max(tr.position_errors.tolist()),
+        "median_error_m": _nan_median(tr.position_errors.tolist()),
+        "max_orientation_error_rad": _nan_max(tr.orientation_errors.tolist()) if pose else None,
+        "median_solve_ms": float(np.median(tr.times) * 1e3),
     }
 
 

@@ -19,7 +19,6 @@ per effector through ``Solver.solve(chain, target, q0)``.
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from collections.abc import Callable
@@ -31,23 +30,17 @@ from numpy.typing import NDArray
 
 from humanoid_ik.config.scene import EffectorSpec, Scene, SolverSpec, check_scene
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import gaze_error, on_target, orientation_error
 from humanoid_ik.core.models import load_model, reset_to_home
 from humanoid_ik.core.types import EffectorGoal, IKResult, Target
 from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.run.metrics import EffectorSample, FrameRecord, Metrics
 
 __all__ = [
-    "ON_TARGET_ANGLE",
-    "ON_TARGET_DISTANCE",
     "SceneRunner",
     "chain_reach",
     "run_scene",
 ]
-
-ON_TARGET_DISTANCE = 1e-3
-"""An effector is on target within this distance [m] (look-at: of the gaze ray)."""
-ON_TARGET_ANGLE = 1e-2
-"""... and, for a pose target, within this angle [rad]."""
 
 
 def chain_reach(chain: Chain) -> tuple[NDArray[np.float64], float]:
@@ -114,6 +107,11 @@ class SceneRunner:
                 solver = spec.make()
                 by_spec[key] = len(self._groups)
             self._groups.append((solver, [i]))
+        # the site axis each look_at effector's solver aims, measured with the same axis
+        self._gaze_axes: list[NDArray[np.float64]] = [np.zeros(3)] * len(self.chains)
+        for solver, members in self._groups:
+            for i in members:
+                self._gaze_axes[i] = solver.gaze_axis()
         self.reset()
 
     @property
@@ -192,27 +190,19 @@ class SceneRunner:
         pd = target.position
         orient: float | None = None
         if eff.task == "look_at":
-            v = pd - p
-            dist = float(np.linalg.norm(v))
-            fwd = R[:, 0]
-            ang = math.atan2(float(np.linalg.norm(np.cross(fwd, v))), float(fwd @ v))
-            miss = dist * math.sin(ang) if ang < math.pi / 2 else dist
-            achieved = p + dist * fwd
-            err, orient = miss, ang
+            axis = self._gaze_axes[i]
+            err, orient = gaze_error(p, R, axis, pd)
+            achieved = p + float(np.linalg.norm(pd - p)) * (R @ axis)
+            on = on_target(err)
             reachable = bool(res.converged)
         else:
             achieved = p
             err = float(np.linalg.norm(pd - p))
             if target.quat is not None:
-                q_site = np.empty(4)
-                mujoco.mju_mat2Quat(q_site, R.reshape(9))
-                dot = min(1.0, abs(float(q_site @ target.quat)))
-                orient = 2.0 * math.acos(dot)
+                orient = orientation_error(R, target.quat)
+            on = on_target(err, orient)
             base, reach = self._reach[i]
             reachable = float(np.linalg.norm(pd - base)) <= reach
-        on = err <= ON_TARGET_DISTANCE and (
-            orient is None or eff.task == "look_at" or orient <= ON_TARGET_ANGLE
-        )
         return EffectorSample(
             effector=eff.site,
             target_name=eff.target,

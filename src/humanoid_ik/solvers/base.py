@@ -1,4 +1,4 @@
-"""The solver protocol: options, applicability, and the error measure all solvers share."""
+"""The solver protocol: options, applicability, the gaze axis, and result measuring."""
 
 from __future__ import annotations
 
@@ -6,36 +6,15 @@ import math
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
-import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import axis_vector, pose_error
 from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.errors import SolverError, choices
 
-__all__ = ["Solver", "pose_error"]
-
-
-def pose_error(chain: Chain, target: Target, out: NDArray[np.float64]) -> tuple[float, float]:
-    """Fill ``out`` with the task error at the chain's current kinematics.
-
-    ``out[:3] = p_target - p_site`` [m]; for a pose target ``out[3:6]`` is the world-frame
-    rotation vector ``w`` with ``R_target = exp([w]x) R_site`` [rad], from ``mju_subQuat``.
-
-    Returns:
-        ``(position error [m], orientation error [rad] or nan)``.
-    """
-    np.subtract(target.position, chain.position, out=out[:3])
-    ep = math.sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2])
-    if target.quat is None:
-        return ep, math.nan
-    buf = chain._quat_buf
-    mujoco.mju_mat2Quat(buf[0], chain.rotation.reshape(9))
-    mujoco.mju_subQuat(buf[1, :3], target.quat, buf[0])  # site frame
-    np.dot(chain.rotation, buf[1, :3], out=out[3:6])
-    er = math.sqrt(out[3] * out[3] + out[4] * out[4] + out[5] * out[5])
-    return ep, er
+__all__ = ["Solver"]
 
 
 class Solver(ABC):
@@ -64,6 +43,7 @@ class Solver(ABC):
         self.options = valid
         for key, value in valid.items():
             setattr(self, key, value)
+        self._buffers = (np.empty(6), np.empty((2, 4)))  # error vector, quaternion scratch
 
     def _check_option(self, key: str, value: Any, default: Any) -> Any:
         if isinstance(default, bool):
@@ -116,6 +96,11 @@ class Solver(ABC):
             "(the target may be out of reach within the joint ranges)"
         )
 
+    def gaze_axis(self) -> NDArray[np.float64]:
+        """The unit axis ``(3,)`` of the site frame this solver aims at a ``look_at``
+        target (``x`` unless an option chooses another)."""
+        return axis_vector(self.options.get("forward_axis", "x"))
+
     def applicable(self, chain: Chain, pose: bool = False) -> str | None:
         """``None`` when the solver can solve this chain and task, else the reason it cannot."""
         if pose and not self.supports_orientation:
@@ -156,8 +141,9 @@ class Solver(ABC):
     ) -> IKResult:
         """Measure ``q`` with MuJoCo FK and wrap it; status from the tolerances unless given."""
         chain.set_q(q)
-        err = np.empty(6)
-        ep, er = pose_error(chain, target, err)
+        ep, er = pose_error(
+            chain.position, chain.rotation, target.position, target.quat, *self._buffers
+        )
         ok = ep < self.tol and (target.quat is None or er < self.rot_tol)
         if status is None:
             status = "converged" if ok else "max_iterations"

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import gaze_error
 from humanoid_ik.core.rotations import AXES, hinge_angle_between
 from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.solvers.base import Solver
@@ -47,6 +48,7 @@ class LookAt(Solver):
     def _solve(self, chain: Chain, target: Target, q0: np.ndarray) -> IKResult:
         m, d = chain.model, chain.data
         k = AXES[self.forward_axis]
+        axis = self.gaze_axis()
         q = q0.copy()
         chain.set_q(q)
         jids, qadr = chain.joint_ids, chain.qpos_adr
@@ -62,26 +64,14 @@ class LookAt(Solver):
                 q[i] = min(max(q[i] + phi, lo[i]), hi[i])
                 d.qpos[qadr[i]] = q[i]
                 mujoco.mj_kinematics(m, d)
-            angle = self._gaze_error(chain, pd, k)[1]
+            angle = gaze_error(chain.position, chain.rotation, axis, pd).angle
             if angle < self.rot_tol:
                 return self._gaze_result(chain, target, q, sweep)
         return self._gaze_result(chain, target, q, self.max_iterations)
 
-    @staticmethod
-    def _gaze_error(chain: Chain, pd: np.ndarray, k: int) -> tuple[float, float]:
-        """(distance [m] from the target to the gaze ray, angle [rad] off the target)."""
-        v = pd - chain.position
-        dist = float(np.linalg.norm(v))
-        if dist < 1e-12:
-            return 0.0, 0.0
-        fwd = chain.rotation[:, k]
-        ang = math.atan2(float(np.linalg.norm(np.cross(fwd, v))), float(fwd @ v))
-        miss = dist * math.sin(ang) if ang < math.pi / 2 else dist
-        return miss, ang
-
     def _gaze_result(self, chain: Chain, target: Target, q: np.ndarray, it: int) -> IKResult:
         chain.set_q(q)
-        miss, ang = self._gaze_error(chain, target.position, AXES[self.forward_axis])
+        miss, ang = gaze_error(chain.position, chain.rotation, self.gaze_axis(), target.position)
         ok = ang < self.rot_tol
         return IKResult(
             q=q.copy(),

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.jacobian.seeds import seed_library
@@ -81,9 +82,9 @@ class JacobianSolver(Solver):
         pose = target.quat is not None
         rows = 6 if pose else 3
         J = chain._J[:rows]
-        e = np.zeros(6)
-        ev, e3, er = e[:rows], e[:3], e[3:]
-        quat, dv = np.zeros(4), np.zeros(3)
+        e, quat_buf = self._buffers
+        e[:] = 0.0
+        ev = e[:rows]
         tp, tq = target.position, target.quat
         site = chain.ee_kind == "site"
         xpos = d.site_xpos[chain.ee_id] if site else d.xpos[chain.ee_id]
@@ -94,8 +95,7 @@ class JacobianSolver(Solver):
         tol, rot_tol = self.tol, self.rot_tol
         max_step, gain = self.max_step, self.nullspace_gain
         window = max(2, self.stall_window)
-        norm3, kinematics, com_pos = mujoco.mju_norm3, mujoco.mj_kinematics, mujoco.mj_comPos
-        mat2quat, sub_quat, rotate = mujoco.mju_mat2Quat, mujoco.mju_subQuat, mujoco.mju_mulMatVec3
+        kinematics, com_pos = mujoco.mj_kinematics, mujoco.mj_comPos
         self._prepare(chain, rows)
 
         best_q, best_cost = q0.copy(), math.inf
@@ -106,13 +106,9 @@ class JacobianSolver(Solver):
             d.qpos[qadr] = q
             for it in range(self.max_iterations + 1):
                 kinematics(m, d)
-                np.subtract(tp, xpos, out=e3)
-                ep = norm3(e3)
+                ep, er = pose_error(xpos, xmat, tp, tq, e, quat_buf)
                 if pose:
-                    mat2quat(quat, xmat)
-                    sub_quat(dv, tq, quat)  # in the site frame
-                    rotate(er, xmat, dv)  # to the world frame
-                    er_n = norm3(er)
+                    er_n = er
                 cost = ep + 0.1 * er_n
                 if cost < best_cost:
                     best_cost = cost

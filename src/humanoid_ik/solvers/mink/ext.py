@@ -18,6 +18,7 @@ from mink.limits.collision_avoidance_limit import (
 )
 from numpy.typing import ArrayLike, NDArray
 
+from humanoid_ik.core.measures import GazeError, axis_vector, gaze_error
 from humanoid_ik.errors import TargetError
 
 __all__ = ["PositionTask", "GazeTask", "JointRangeLimit", "JointVelocityLimit", "CollisionLimit"]
@@ -165,11 +166,7 @@ class GazeTask(_BufferedTask):
         super().__init__(cost=np.full(3, float(cost)), gain=gain, lm_damping=lm_damping)
         self.site = site
         self.site_id = int(model.site(site).id)
-        a = np.asarray(axis, dtype=np.float64)
-        na = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
-        if not na > 1e-12:
-            raise TargetError(f"gaze axis {a.tolist()} must be a non-zero 3-vector")
-        self.axis = a / na
+        self.axis = axis_vector(axis)
         self.target: NDArray[np.float64] | None = None
         self._jac = np.zeros((6, model.nv))  # (6, nv): J_v over J_w
         self._M = np.empty((3, 6))  # [(I - d d') / n, -[f]x]
@@ -226,17 +223,15 @@ class GazeTask(_BufferedTask):
         mujoco.mj_jacSite(m, d, jac[:3], jac[3:], sid)
         np.matmul(M, jac, out=self._J)
 
-    def angle(self, configuration: mink.Configuration) -> tuple[float, float]:
-        """``(theta [rad], miss [m])``: the angle between the axis and the target direction,
-        and the distance from the target to the gaze ray (the distance to the site when
-        the target is behind it)."""
-        (f0, f1, f2), (v0, v1, v2) = self._forward_and_offset(configuration.data)
-        dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-        if dist < 1e-12:
-            return 0.0, 0.0
-        c0, c1, c2 = f1 * v2 - f2 * v1, f2 * v0 - f0 * v2, f0 * v1 - f1 * v0
-        theta = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), f0 * v0 + f1 * v1 + f2 * v2)
-        return theta, dist * math.sin(theta) if theta < math.pi / 2 else dist
+    def error(self, configuration: mink.Configuration) -> GazeError:
+        """The gaze error (:func:`humanoid_ik.core.measures.gaze_error`) at the
+        configuration's kinematics."""
+        if self.target is None:
+            raise mink.TargetNotSet(self.__class__.__name__)
+        d = configuration.data
+        return gaze_error(
+            d.site_xpos[self.site_id], d.site_xmat[self.site_id], self.axis, self.target
+        )
 
 
 class JointRangeLimit(mink.Limit):

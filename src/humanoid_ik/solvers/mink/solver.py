@@ -61,6 +61,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.models import home_qpos, load_model
 from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.errors import ChainError, NameNotFoundError, SolverError, TargetError, choices
@@ -298,7 +299,7 @@ class UpperBodyIK:
                 collision_detection_distance=o["detection_distance"],
             )
         self._problems: dict[tuple[tuple[str, bool], ...], _Problem] = {}
-        self._err_quat = np.empty((2, 4))
+        self._err_buffers = (np.empty(6), np.empty((2, 4)))  # error vector, quaternion scratch
         self._dq = np.zeros(m.nv)
         self._dist = np.empty(0 if self._collision is None else len(self._collision.geom_id_pairs))
         self.reset()
@@ -489,17 +490,12 @@ class UpperBodyIK:
         chain = self.chains[name]
         d = self.configuration.data
         if self._gaze_chain is not None and name == self._gaze_chain.ee_name:
-            theta, miss = self._gaze_task.angle(self.configuration)
+            miss, theta = self._gaze_task.error(self.configuration)
             return miss, theta
         pos = (d.site_xpos if chain.ee_kind == "site" else d.xpos)[chain.ee_id]
-        ep = float(np.linalg.norm(tgt.position - pos))
-        if not tgt.is_pose:
-            return ep, None
         xmat = (d.site_xmat if chain.ee_kind == "site" else d.xmat)[chain.ee_id]
-        buf = self._err_quat
-        mujoco.mju_mat2Quat(buf[0], xmat)
-        mujoco.mju_subQuat(buf[1, :3], tgt.quat, buf[0])
-        return ep, float(np.linalg.norm(buf[1, :3]))
+        ep, er = pose_error(pos, xmat, tgt.position, tgt.quat, *self._err_buffers)
+        return ep, (er if tgt.is_pose else None)
 
     def _within(self, name: str, ep: float, er: float | None) -> bool:
         o = self.options
@@ -714,7 +710,9 @@ class MinkSolver(Solver):
         "dt": 0.0,
         "max_velocity": 4.0,
         "qp_solver": "daqp",
+        "forward_axis": "x",
     }
+    forward_axis_choices: ClassVar[tuple[str, ...]] = ("x", "y", "z")
     _forwarded: ClassVar[tuple[str, ...]] = (
         "tol",
         "rot_tol",
@@ -799,6 +797,7 @@ class MinkSolver(Solver):
             hands=[c for c, look in key if not look],
             gaze=looks[0] if looks else None,
             collision_pairs=DEFAULT_COLLISION_PAIRS if self.collisions else None,
+            gaze_axis=self.gaze_axis(),
             **opts,
         )
         self._multi_cache = (key, ik)
