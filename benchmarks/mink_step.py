@@ -21,7 +21,7 @@ import numpy as np
 
 from humanoid_ik.core.rotations import axis_angle_matrix, mat_to_quat
 from humanoid_ik.core.types import Target
-from humanoid_ik.solvers.mink.solver import UpperBodyIK
+from humanoid_ik.solvers.mink import UpperBodyIK
 
 
 def targets_at(t: float) -> dict[str, object]:
@@ -75,7 +75,7 @@ def main() -> int:
         "median_right_error_mm": float(np.median(errors[:, 0]) * 1e3),
         "median_left_error_mm": float(np.median(errors[:, 1]) * 1e3),
         "median_gaze_error_deg": float(np.degrees(np.median(errors[:, 2]))),
-        "collision_pairs": len(ik._collision.geom_id_pairs) if ik._collision else 0,
+        "collision_pairs": len(ik.collision_limit.geom_id_pairs) if ik.collision_limit else 0,
         "machine": f"{platform.processor() or platform.machine()}, {platform.python_version()}",
     }
     for key, value in figures.items():

@@ -5,9 +5,10 @@ In one process and at one frame size, alternating rounds of:
 - **renderer alone**: ``mujoco.Renderer.update_scene`` + ``render`` on the scene's poses
   (the joint values of each frame are computed beforehand and set outside the timing);
 - **pipeline**: :func:`humanoid_ik.outputs.render.render_scene` on the same scene and frames:
-  move targets, solve, ``mj_forward``, metrics, markers and trails, render, and hand the
-  frame to the MP4 encoder thread (per-frame loop time), plus the whole run including
-  set-up and writing every output (end to end).
+  per frame of the runner's loop (``SceneRunner.run`` with the film as a sink) move
+  targets, solve, ``mj_forward``, metrics, markers and trails, render, and hand the frame
+  to the MP4 encoder thread (per-frame loop time), plus the whole run including set-up
+  and writing every output (end to end).
 
 Prints the median time per frame of each, the frames per second and the ratio
 pipeline fps / renderer fps (goal: >= 0.8)::

@@ -228,3 +228,15 @@ def test_robot_path_includes_the_waist():
     chain = Chain(robot, "right_hand_site")
     assert chain.joint_names[0] == "waist_yaw" and chain.n == 8
     assert chain.joint_names[-1] == "r_wr_yaw"
+
+
+def test_path_joint_ids_reach_the_world():
+    """``path_joint_ids`` lists every joint from the hand's body to the world, tip first:
+    the chain's hinges and, past them, the floating base the path rule stops at."""
+    robot = Path(__file__).resolve().parents[1] / "models" / "robot" / "robot.xml"
+    chain = Chain(robot, "right_hand_site")
+    m = chain.model
+    names = [m.joint(int(j)).name for j in chain.path_joint_ids]
+    assert names[: chain.n] == chain.joint_names[::-1]
+    assert len(names) == chain.n + 1
+    assert m.jnt_type[chain.path_joint_ids[-1]] == mujoco.mjtJoint.mjJNT_FREE

@@ -9,17 +9,22 @@ import pytest
 
 from humanoid_ik import Chain, SolverError, Target, TargetError, make_solver
 from humanoid_ik.cli import main
-from humanoid_ik.core.rotations import mat_to_quat, rotation_log
+from humanoid_ik.core.rotations import axes_meeting_point, mat_to_quat, rotation_log
 from humanoid_ik.experiments.bench import run_bench
 from humanoid_ik.solvers.analytic.closed_form import (
     ClosedForm,
     arm_geometry,
+    geometry,
     solutions,
     solve_batch,
     structure_problem,
     swivel_angle,
     swivel_intervals,
 )
+from humanoid_ik.solvers.analytic.closed_form.geometry import arm_cache, arm_context
+from humanoid_ik.solvers.analytic.closed_form.numeric import ARRAYS, FLOATS
+from humanoid_ik.solvers.analytic.closed_form.single import Fallback, solve_one
+from humanoid_ik.solvers.analytic.closed_form.swivel import decompose, feasible
 
 from .chains import CCD_XML, SMALL_ARM_XML, model
 
@@ -328,6 +333,123 @@ def test_batch_position_and_options():
         np.testing.assert_allclose(res.q, q[i], atol=1e-9)
 
 
+def _one(chain: Chain, target: Target, q0: np.ndarray, swivel: float | None = None):
+    """The single-target (float) path on its own, without the solver around it."""
+    rot = None if target.rotation is None else target.rotation.tolist()
+    q, _ = solve_one(arm_context(chain), target.position.tolist(), rot, q0.tolist(), swivel)
+    return np.array(q)
+
+
+@pytest.mark.parametrize("arm", ["right", "other", "skew"])
+def test_single_and_batch_paths_agree(arm):
+    """The float path and the vectorised path give the same joints (1e-9) on random
+    poses and positions, random starts and random preferred swivels; the float path
+    answers every one of them itself (no hand-over to the batch)."""
+    chain = Chain(model(SKEW_XML), "tool") if arm == "skew" else ARMS[arm]()
+    rng = np.random.default_rng(32)
+    targets, qs = _poses(chain, 150, seed=33)
+    q0 = np.array([chain.random_q(rng) for _ in range(150)])
+    psi = rng.uniform(-math.pi, math.pi, 150)
+    P = np.array([t.position for t in targets])
+    Q = np.array([t.quat for t in targets])
+    for kw in ({}, {"q0": q0}, {"q0": q0, "swivel": psi}):
+        q_b, ok = solve_batch(chain, P, Q, **kw)
+        assert ok.all()
+        for i in range(150):
+            start = q0[i] if "q0" in kw else chain.clip(chain.q)
+            sw = float(psi[i]) if "swivel" in kw else None
+            np.testing.assert_allclose(_one(chain, targets[i], start, sw), q_b[i], atol=1e-9)
+    # position targets (the wrist held at the start's angles)
+    q_b, ok = solve_batch(chain, P, q0=q0, swivel=psi)
+    for i in np.flatnonzero(ok):
+        got = _one(chain, Target(P[i]), chain.clip(q0[i]), float(psi[i]))
+        np.testing.assert_allclose(got, q_b[i], atol=1e-9)
+
+
+def test_float_and_array_decompositions_agree():
+    """decompose on floats and on arrays is one code: the same numbers (1e-14), and the
+    lazy float reading keeps exactly the branches that are inside."""
+    chain = Chain(model(SKEW_XML), "tool")
+    ctx = arm_context(chain)
+    rng = np.random.default_rng(34)
+    for tri in (ctx.sh, ctx.wr):
+        K = rng.normal(size=(15, 200))
+        psi = rng.uniform(-math.pi, math.pi, 200)
+        full = decompose(ARRAYS, tri, K, np.cos(psi), np.sin(psi))
+        ok = np.broadcast_to(feasible(full), (200,))
+        for m in range(200):
+            k, c, s = tuple(K[:, m].tolist()), math.cos(psi[m]), math.sin(psi[m])
+            one = decompose(FLOATS, tri, k, c, s)
+            lazy = decompose(FLOATS, tri, k, c, s, True)
+            assert (lazy is not None) == bool(ok[m]) == bool(feasible(one))
+            assert one[0] == pytest.approx(full[0][m], abs=1e-14)
+            for b in (2, 3):
+                inside = bool(np.broadcast_to(full[b][6], (200,))[m])
+                assert bool(one[b][6]) == inside
+                got = [np.broadcast_to(x, (200,))[m] for x in full[b][:6]]
+                np.testing.assert_allclose(one[b][:6], got, atol=1e-14)
+                if lazy is not None:
+                    assert bool(lazy[b][6]) == inside
+                    if inside:
+                        assert lazy[b] == one[b]
+
+
+def test_float_path_hands_over_what_it_does_not_solve():
+    """Out of reach, elbow out of range, no feasible swivel, a gimbal lock: the float
+    path raises Fallback and the solver answers through the batch."""
+    chain = Chain()
+    geo = arm_geometry(chain)
+    q = np.array([-1.0, 0.0, 1.22, 0.1, 1.4, 1.4, 0.35])
+    p, R = chain.fk(q)
+    lock = np.array([0.4, math.pi / 2, -0.6, 1.0, 0.2, 0.1, 0.1])
+    pl, Rl = chain.fk(lock)
+    cases = [
+        (Target(geo.shoulder + [3.0, 0.0, 0.0], [1, 0, 0, 0]), None),  # beyond reach
+        (Target(geo.shoulder, [1, 0, 0, 0]), None),  # elbow out of range
+        (Target(p, mat_to_quat(R @ np.diag([-1.0, -1.0, 1.0]))), None),  # no swivel
+        (Target(pl, mat_to_quat(Rl)), swivel_angle(chain, lock)),  # shoulder lock
+    ]
+    for tgt, sw in cases:
+        start = lock if sw is not None else chain.q_home
+        with pytest.raises(Fallback):
+            _one(chain, tgt, start, sw)
+        res = ClosedForm(swivel=sw).solve(chain, tgt, q0=start)
+        assert np.all(np.isfinite(res.q)) and chain.within_limits(res.q)
+
+
+def test_caches_live_on_the_chain(monkeypatch):
+    """prepare() reads the geometry once and the chain keeps it; solves read nothing
+    more; another chain has its own; a moved free base makes one fresh read."""
+    reads = []
+    real = geometry.read_geometry
+    monkeypatch.setattr(geometry, "read_geometry", lambda c: reads.append(c) or real(c))
+    chain = Chain(model(SMALL_ARM_XML), "tip")
+    solver = ClosedForm()
+    solver.prepare(chain)
+    assert len(reads) == 1 and arm_cache(chain) is arm_cache(chain)
+    q = np.array([0.3, -0.4, 0.5, -1.0, 0.2, 0.3, -0.2])
+    p, R = chain.fk(q)
+    for _ in range(3):
+        assert solver.solve(chain, Target(p, mat_to_quat(R))).converged
+    assert len(reads) == 1
+    other = Chain(chain.model, "tip")
+    assert arm_cache(other) is not arm_cache(chain)
+    chain.data.qpos[chain.model.joint("float").qposadr[0]] += 0.2
+    arm_context(chain)
+    arm_context(chain)
+    assert len(reads) == 2
+
+
+def test_axes_meeting_point():
+    """Lines through one point give it; parallel or skew lines give None."""
+    S = np.array([0.1, -0.2, 0.3])
+    axes = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.6, 0.0, 0.8]])
+    anchors = S + np.array([0.5, -1.0, 2.0])[:, None] * axes
+    np.testing.assert_allclose(axes_meeting_point(anchors, axes), S, atol=1e-12)
+    assert axes_meeting_point(anchors, np.array([axes[0]] * 3)) is None
+    assert axes_meeting_point(anchors + [[0.0, 0.0, 0.0], [0.01, 0, 0], [0, 0, 0]], axes) is None
+
+
 # ----------------------------------------------------------------------------- failures
 @pytest.mark.parametrize(
     ("xml", "words"),
@@ -348,6 +470,15 @@ def test_chains_without_the_structure_are_refused(xml, words):
         ClosedForm().solve(chain, chain.fk(np.zeros(chain.n))[0])
     with pytest.raises(SolverError, match=words):
         solve_batch(chain, np.zeros((1, 3)))
+    for query in (
+        lambda: solutions(chain, np.zeros(3), 0.0),
+        lambda: swivel_intervals(chain, np.zeros(3)),
+        lambda: swivel_angle(chain, np.zeros(chain.n)),
+        lambda: arm_geometry(chain),
+    ):
+        with pytest.raises(SolverError, match=words):
+            query()
+    ClosedForm().prepare(chain)  # nothing to build, and no error
     report = run_bench(chain, "position", solvers=["closed_form"], n=3)
     assert report.results[0].skipped == reason
 
@@ -437,6 +568,12 @@ def test_bad_inputs_are_refused():
         solve_batch(chain, [[0.3, -0.2, 1.1]], swivel=[0.1, 0.2])
     with pytest.raises(TargetError, match="swivel must be finite angles"):
         solutions(chain, [0.3, -0.2, 1.1], [[0.1]])
+    with pytest.raises(TargetError, match="swivel must be finite angles"):
+        solutions(chain, [0.3, -0.2, 1.1], math.inf)
+    with pytest.raises(TargetError, match="q0 must be 7 finite"):
+        swivel_intervals(chain, [0.3, -0.2, 1.1], q0=[0.0, np.nan, 0, 0, 0, 0, 0])
+    with pytest.raises(TargetError, match="not finite"):
+        swivel_intervals(chain, [0.3, np.nan, 1.1])
     with pytest.raises(TargetError, match="joint vector must have shape"):
         swivel_angle(chain, np.zeros(3))
     for bad in (True, "up", math.nan):

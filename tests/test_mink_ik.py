@@ -1,14 +1,17 @@
 """The mink solver: single-chain IK, both hands + gaze in one QP, limits, collisions,
-frozen joints, the gaze and position task Jacobians, and the errors it raises.
+frozen joints, the gaze and position task Jacobians, the QP step against mink's public
+``solve_ik``, the caches, the private-name adapter, and the errors it raises.
 
 Real mink and daqp throughout, no mocks.
 """
 
 from __future__ import annotations
 
+import ast
 import math
 import subprocess
 import sys
+from pathlib import Path
 from typing import NamedTuple
 
 import mink
@@ -27,18 +30,18 @@ from humanoid_ik import (
     make_solver,
     solve,
 )
+from humanoid_ik.core.measures import axis_vector, gaze_error
 from humanoid_ik.core.rotations import mat_to_quat, rotation_log
 from humanoid_ik.experiments.bench import make_targets
-from humanoid_ik.solvers.mink.ext import (
+from humanoid_ik.solvers import mink as mink_solver
+from humanoid_ik.solvers.mink import (
+    DEFAULT_COLLISION_PAIRS,
     CollisionLimit,
     GazeTask,
     JointRangeLimit,
     JointVelocityLimit,
-    PositionTask,
-)
-from humanoid_ik.solvers.mink.solver import (
-    DEFAULT_COLLISION_PAIRS,
     MinkSolver,
+    PositionTask,
     UpperBodyIK,
     UpperBodyResult,
 )
@@ -273,21 +276,48 @@ def _fd_jacobian(task, cfg: mink.Configuration, q: np.ndarray, h: float = 1e-6) 
     return J
 
 
-def test_gaze_jacobian_matches_finite_differences():
-    """GazeTask J = -[f]x J_w + (I - d d') J_v / n equals central differences of e."""
+@pytest.mark.parametrize("axis", ["x", "y", "z", (0.2, -0.5, 1.0)])
+def test_gaze_jacobian_matches_finite_differences(axis):
+    """GazeTask J = -[f]x J_w + (I - d d') J_v / n equals central differences of e, for
+    every forward axis."""
     chain = Chain(None, "gaze_site")
     m = chain.model
     cfg = mink.Configuration(m)
     rng = np.random.default_rng(5)
-    for axis in [(1.0, 0.0, 0.0), (0.2, -0.5, 1.0)]:
-        task = GazeTask(m, "gaze_site", axis=axis)
-        for _ in range(5):
-            q = m.qpos0.copy()
-            q[chain.qpos_adr] = chain.random_q(rng)
-            cfg.update(q)
-            task.set_target(rng.uniform([0.2, -1, 0.8], [2, 1, 2.5]))
-            J = task.compute_jacobian(cfg)
-            np.testing.assert_allclose(J, _fd_jacobian(task, cfg, q), atol=1e-7)
+    task = GazeTask(m, "gaze_site", axis=axis)
+    for _ in range(5):
+        q = m.qpos0.copy()
+        q[chain.qpos_adr] = chain.random_q(rng)
+        cfg.update(q)
+        task.set_target(rng.uniform([0.2, -1, 0.8], [2, 1, 2.5]))
+        J = task.compute_jacobian(cfg)
+        np.testing.assert_allclose(J, _fd_jacobian(task, cfg, q), atol=1e-7)
+
+
+@pytest.mark.parametrize("axis", ["x", "y", "z", (0.2, -0.5, 1.0)])
+def test_gaze_error_is_f_minus_d_and_matches_the_shared_measure(axis):
+    """e = R a - (p* - p) / |p* - p| from MuJoCo FK, |e| = 2 sin(theta / 2) with theta the
+    angle of core.measures.gaze_error, and error() is that shared measure."""
+    chain = Chain(None, "gaze_site")
+    m = chain.model
+    cfg = mink.Configuration(m)
+    rng = np.random.default_rng(15)
+    task = GazeTask(m, "gaze_site", axis=axis)
+    a = axis_vector(axis)
+    sid = m.site("gaze_site").id
+    for _ in range(5):
+        q = m.qpos0.copy()
+        q[chain.qpos_adr] = chain.random_q(rng)
+        cfg.update(q)
+        target = rng.uniform([0.2, -1, 0.8], [2, 1, 2.5])
+        task.set_target(target)
+        p, R = cfg.data.site_xpos[sid], cfg.data.site_xmat[sid].reshape(3, 3)
+        d = (target - p) / np.linalg.norm(target - p)
+        e = task.compute_error(cfg)
+        np.testing.assert_allclose(e, R @ a - d, atol=1e-12)
+        shared = gaze_error(p, R, a, target)
+        assert task.error(cfg) == pytest.approx(shared, abs=1e-12)
+        assert np.linalg.norm(e) == pytest.approx(2 * math.sin(shared.angle / 2), abs=1e-12)
 
 
 def test_gaze_error_is_the_aim_misalignment():
@@ -308,6 +338,7 @@ def test_gaze_error_is_the_aim_misalignment():
     assert miss == pytest.approx(1.0)  # |(1, 1)| sin 45 deg
 
 
+@pytest.mark.skipif(not hasattr(mink, "LookAtTask"), reason="mink.LookAtTask is new in 1.3")
 def test_gaze_gradient_matches_mink_look_at_task():
     """Same error norm as mink's LookAtTask, so the same QP gradient c = -J' W^2 e."""
     chain = Chain(None, "gaze_site")
@@ -512,6 +543,248 @@ def test_collision_rows_are_displacement_bounds():
     cfg.update(q + dq)
     d1 = lim.distances(cfg.data, np.empty(len(d0)))
     np.testing.assert_allclose(d1[active] - d0[active], -G1[active] @ dq, atol=1e-8)
+
+
+# ---------------------------------------------------------------------------- vs mink
+class _PlainTask(mink.Task):
+    """One of our tasks seen through mink's public task interface only
+    (``compute_error`` and ``compute_jacobian``), so that mink's own generic path, not
+    ours, turns it into QP rows."""
+
+    def __init__(self, task: mink.Task):
+        super().__init__(cost=task.cost, gain=task.gain, lm_damping=task.lm_damping)
+        self.task = task
+
+    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
+        return self.task.compute_error(configuration)
+
+    def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
+        return self.task.compute_jacobian(configuration)
+
+
+def _mink_solve_ik(ik: UpperBodyIK, q: np.ndarray, targets: dict, dt: float) -> np.ndarray:
+    """The displacement ``(nv,)`` of ``mink.solve_ik`` from ``q`` on the tasks and limits
+    of ``ik.step(targets, dt)``, built from mink's public API: FrameTask, PostureTask,
+    ConfigurationLimit, VelocityLimit, CollisionAvoidanceLimit, DofFreezingTask (our
+    position and gaze tasks through :class:`_PlainTask`)."""
+    m, o = ik.model, ik.options
+    tasks: list = []
+    for name, value in targets.items():
+        if name == "gaze_site":
+            gaze = GazeTask(m, name, cost=o["gaze_cost"])
+            gaze.set_target(value)
+            tasks.append(_PlainTask(gaze))
+        elif isinstance(value, Target) and value.is_pose:
+            frame = mink.FrameTask(
+                name,
+                "site",
+                position_cost=o["position_cost"],
+                orientation_cost=o["orientation_cost"],
+                lm_damping=o["lm_damping"],
+            )
+            frame.set_target(mink.SE3(np.concatenate([value.quat, value.position])))
+            tasks.append(frame)
+        else:
+            pos = PositionTask(m, name, cost=o["position_cost"], lm_damping=o["lm_damping"])
+            pos.set_target(value)
+            tasks.append(_PlainTask(pos))
+    posture = mink.PostureTask(m, cost=o["posture_cost"], gain=o["posture_gain"])
+    posture.set_target(ik.q_home)
+    tasks.append(posture)
+    joints = [m.joint(j).name for c in ik.chains.values() for j in c.joint_ids]
+    limits: list = [
+        mink.ConfigurationLimit(m, gain=o["range_gain"]),
+        mink.VelocityLimit(m, dict.fromkeys(joints, o["max_velocity"])),
+    ]
+    if ik.collision_limit is not None:
+        limits.append(
+            mink.CollisionAvoidanceLimit(
+                m,
+                DEFAULT_COLLISION_PAIRS,
+                gain=o["collision_gain"],
+                minimum_distance_from_collisions=o["min_distance"],
+                collision_detection_distance=o["detection_distance"],
+            )
+        )
+    active = np.concatenate([ik.chains[n].dof_adr for n in targets])
+    frozen = np.setdiff1d(np.arange(m.nv), active)
+    freeze = [mink.DofFreezingTask(m, frozen.tolist())] if frozen.size else None
+    cfg = mink.Configuration(m, q.copy())
+    v = mink.solve_ik(
+        cfg, tasks, dt, "daqp", damping=o["damping"], limits=limits, constraints=freeze
+    )
+    return v * dt
+
+
+def _case_hands_and_gaze() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
+    """Both hands (right pose, left position) and the gaze, with error-scaled damping:
+    the velocity limit binds on some joints."""
+    ik = UpperBodyIK(collision_pairs=None, lm_damping=0.01)
+    q = ik.q_home.copy()
+    q[ik.chains["right_palm_site"].qpos_adr] = [0.3, 0.2, 0.1, 1.0, 0.2, 0.1, 0.0]
+    q[ik.chains["left_palm_site"].qpos_adr] = [0.2, 0.1, -0.1, 0.8, -0.2, 0.0, 0.1]
+    p, R = Chain().fk([0.7, 0.3, 0.2, 1.3, 0.3, 0.2, 0.1])
+    targets = {
+        "right_palm_site": Target(p, mat_to_quat(R)),
+        "left_palm_site": np.array([0.35, 0.3, 1.15]),
+        "gaze_site": np.array([1.0, -0.3, 1.3]),
+    }
+    return ik, q, targets, 0.1
+
+
+def _case_collisions() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
+    """The right hand pulled into the torso: a collision row binds. dt = 1 s, where mink's
+    collision bound (divided by dt) and ours (a displacement) agree."""
+    ik = UpperBodyIK(max_velocity=1.0)
+    q = ik.q_home.copy()
+    q[ik.chains["right_palm_site"].qpos_adr] = [0.3, -0.2, 0.5, 2.0, 0.0, 0.0, 0.0]
+    targets = {"right_palm_site": np.array([-0.1, 0.0, 1.2])}
+    return ik, q, targets, 1.0
+
+
+def _case_one_chain() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
+    """One arm with a pose target (MinkSolver's case); the other joints frozen away
+    from home."""
+    ik = UpperBodyIK(hands=("right_palm_site",), gaze=None, collision_pairs=None)
+    m = ik.model
+    q = ik.q_home.copy()
+    for name, value in [("left_elbow_joint", 1.2), ("neck_yaw_joint", 0.4)]:
+        q[m.joint(name).qposadr[0]] = value
+    p, R = Chain().fk([0.5, 0.3, 0.1, 1.1, 0.2, 0.1, 0.0])
+    return ik, q, {"right_palm_site": Target(p, mat_to_quat(R))}, 0.1
+
+
+@pytest.mark.parametrize(
+    "case",
+    [_case_hands_and_gaze, _case_collisions, _case_one_chain],
+    ids=["hands_and_gaze", "collisions", "one_chain"],
+)
+def test_qp_step_matches_mink_solve_ik(case):
+    """UpperBodyIK's QP step (our buffered tasks through the adapter, our limits) finds
+    the same displacement, to 1e-8, as mink's public solve_ik on the same tasks and
+    limits from the same configuration (daqp both). A mink release that changes the
+    private names the adapter uses fails here."""
+    ik, q, targets, dt = case()
+    ik.set_q(q)
+    ik.step(targets, dt)
+    ours = ik.last_dq
+    theirs = _mink_solve_ik(ik, q, targets, dt)
+    np.testing.assert_allclose(ours, theirs, rtol=0.0, atol=1e-8)
+    # a step the objective shapes: some bounds bind, not all
+    vmax = ik.options["max_velocity"] * dt
+    active = np.concatenate([ik.chains[n].dof_adr for n in targets])
+    at_bound = np.isclose(np.abs(ours[active]), vmax, atol=1e-9)
+    assert at_bound.any() and not at_bound.all()
+    if case is _case_collisions:
+        lim = ik.collision_limit
+        assert lim is not None
+        G, h = lim.compute_qp_inequalities(mink.Configuration(ik.model, q), dt)
+        rows = np.isfinite(h)
+        assert np.any(np.abs(h[rows] - G[rows] @ ours) < 1e-9)  # a collision row binds
+
+
+@pytest.mark.parametrize("make", ["position", "gaze"])
+@pytest.mark.parametrize("gain, lm_damping", [(1.0, 0.0), (0.4, 0.0), (0.7, 0.05)])
+def test_task_rows_are_the_documented_weighting(make, gain, lm_damping):
+    """Our tasks' QP rows (one fill, weighted by mink through the adapter) are
+    ``(W J, -gain W e, lm_damping |gain W e|^2)`` with ``W = diag(cost)``, as the adapter
+    documents, and equal mink's generic rows from compute_error / compute_jacobian."""
+    m = Chain().model
+    cfg = mink.Configuration(m, m.qpos0 + np.random.default_rng(10).uniform(-0.4, 0.4, m.nq))
+    if make == "position":
+        task = PositionTask(m, "right_palm_site", cost=2.0, gain=gain, lm_damping=lm_damping)
+    else:
+        task = GazeTask(m, "gaze_site", axis="z", cost=0.7, gain=gain, lm_damping=lm_damping)
+    task.set_target([0.6, -0.2, 1.4])
+    e, J, w = task.compute_error(cfg), task.compute_jacobian(cfg), task.cost
+    WJ, We, mu = task.compute_qp_residual(cfg)
+    np.testing.assert_allclose(WJ, w[:, None] * J, rtol=0.0, atol=1e-15)
+    np.testing.assert_allclose(We, -gain * w * e, rtol=0.0, atol=1e-15)
+    assert mu == pytest.approx(lm_damping * np.sum((gain * w * e) ** 2), rel=1e-12, abs=1e-18)
+    for ours, theirs in zip((WJ, We, mu), _PlainTask(task).compute_qp_residual(cfg), strict=True):
+        np.testing.assert_allclose(ours, theirs, rtol=0.0, atol=1e-15)
+
+
+def test_mink_internals_only_in_the_adapter():
+    """Outside adapter.py, the mink solver's modules use only mink's top-level public
+    names: no ``from mink.sub import``, no ``mink.<private or unexported>``, and no
+    ``obj._private`` on anything but ``self`` / ``cls``."""
+    root = Path(mink_solver.__file__).parent
+    public = {n for n in dir(mink) if not n.startswith("_")}
+    bad = []
+    for path in sorted(root.rglob("*.py")):
+        if path.name == "adapter.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            where = f"{path.relative_to(root)}:{getattr(node, 'lineno', 0)}"
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+                bad += [f"{where} import {n}" for n in names if n.startswith("mink.")]
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("mink"):
+                bad.append(f"{where} from {node.module} import ...")
+            elif isinstance(node, ast.Attribute):
+                owner = node.value.id if isinstance(node.value, ast.Name) else None
+                if owner == "mink" and node.attr not in public:
+                    bad.append(f"{where} mink.{node.attr}")
+                private = node.attr.startswith("_") and not node.attr.startswith("__")
+                if private and owner not in ("self", "cls"):
+                    bad.append(f"{where} .{node.attr}")
+    assert bad == []
+
+
+# ---------------------------------------------------------------------------- caches
+def test_prepare_builds_everything_a_timed_solve_uses(monkeypatch):
+    """After prepare(chain), solving position and pose targets on that chain builds no
+    UpperBodyIK and no QP problem."""
+    chain = Chain()
+    solver = MinkSolver()
+    solver.prepare(chain)
+    ik = solver.upper_body(chain)
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("set-up work inside a timed solve")
+
+    monkeypatch.setattr("humanoid_ik.solvers.mink.problem.build_problem", no_build)
+    monkeypatch.setattr(MinkSolver, "_build", no_build)
+    p, R = Chain().fk([0.5, 0.3, 0.1, 1.1, 0.2, 0.1, 0.0])
+    assert solver.solve(chain, p).converged
+    assert solver.solve(chain, Target(p, mat_to_quat(R))).converged
+    assert solver.upper_body(chain) is ik
+
+
+def test_caches_are_rebuilt_only_for_other_chains_or_goals():
+    """The solve cache follows the chain object; the solve_effectors cache follows the
+    goals' chains and tasks; prepare_effectors fills the latter."""
+    solver = MinkSolver()
+    a, b = Chain(), Chain()
+    ik_a = solver.upper_body(a)
+    assert solver.upper_body(a) is ik_a
+    assert solver.upper_body(b) is not ik_a  # equal, but another chain object
+    goals = _goals()
+    solver.prepare_effectors(goals)
+    ik = solver.upper_body_for(goals)
+    solver.solve_effectors(goals)
+    assert solver.upper_body_for(goals) is ik
+    moved = [g._replace(q0=g.chain.q_home + 0.01) for g in goals]
+    assert solver.upper_body_for(moved) is ik  # warm starts are inputs, not state
+    assert solver.upper_body_for(_goals(("reach", "reach", "reach"))) is not ik
+
+
+@pytest.mark.parametrize(
+    "axis, point",
+    [("x", [0.75, 0.10, 1.75]), ("y", [0.30, 0.70, 1.62]), ("z", [0.35, 0.0, 2.3])],
+)
+def test_forward_axis_is_the_axis_aimed(axis, point):
+    """MinkSolver(forward_axis=...) aims that axis of the look_at site at the target."""
+    solver = MinkSolver(forward_axis=axis)
+    np.testing.assert_array_equal(solver.gaze_axis(), axis_vector(axis))
+    chain = Chain(None, "gaze_site")
+    goal = Goal(chain, Target(point), chain.q_home, "look_at")
+    (res,) = solver.solve_effectors([goal])
+    assert res.converged
+    chain.set_q(res.q)
+    _, angle = gaze_error(chain.position, chain.rotation, axis_vector(axis), np.array(point))
+    assert angle < 1e-3 and res.orientation_error == pytest.approx(angle, abs=1e-12)
 
 
 # ---------------------------------------------------------------------------- errors

@@ -4,12 +4,17 @@ targets project, and the outputs are complete."""
 
 from __future__ import annotations
 
+import fcntl
 import math
 import os
+import pty
 import re
+import select
 import signal
+import struct
 import subprocess
 import sys
+import termios
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -23,7 +28,6 @@ from PIL import Image
 from humanoid_ik.cli import main
 from humanoid_ik.config.scene import bundled_scenes, load_scene
 from humanoid_ik.errors import RenderError
-from humanoid_ik.outputs import render as render_mod
 from humanoid_ik.outputs.render import (
     MARKER_RADIUS,
     FrameRenderer,
@@ -33,7 +37,8 @@ from humanoid_ik.outputs.render import (
     render_scene,
     select_backend,
 )
-from humanoid_ik.run.runner import SceneRunner
+from humanoid_ik.outputs.render import backend as backend_mod
+from humanoid_ik.run.runner import SceneRunner, run_scene
 
 W, H, N = 160, 120, 6
 REPO = Path(__file__).resolve().parents[1]
@@ -50,6 +55,7 @@ def short(name: str, frames: int = N, width: int = W, height: int = H):
 
 
 def decode(path: Path) -> list[np.ndarray]:
+    """Every frame of a video, decoded by ffmpeg, ``(height, width, 3)`` uint8 each."""
     gen = imageio_ffmpeg.read_frames(str(path))
     meta = next(gen)
     w, h = meta["size"]
@@ -69,6 +75,7 @@ def colour_class(px: np.ndarray) -> str:
 
 
 def expected_class(sample) -> str:
+    """The marker colour a sample's state calls for."""
     if sample.on_target:
         return "green"
     return "orange" if sample.reachable else "red"
@@ -100,6 +107,7 @@ def renders(tmp_path_factory):
 SCENES = [p.stem for p in bundled_scenes()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
 def test_video_decodes_to_the_frame_count(renders, name):
     """The MP4 decodes to exactly the frames rendered, at the rendered size."""
@@ -112,11 +120,13 @@ def test_video_decodes_to_the_frame_count(renders, name):
     assert n == N
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
 def test_frames_change_where_the_arm_moves(renders, name):
-    """Frames change over time (the arm and the target move): some decoded frame differs
-    from the first by a mean of more than 1 grey level, most consecutive frames differ,
-    and the PNGs differ likewise."""
+    """Frames change as the arm and the target move, in the video and in the PNGs.
+
+    Some decoded frame differs from the first by a mean of more than 1 grey level, most
+    consecutive frames differ, and the PNGs differ likewise."""
     sc, out = renders[name]
     frames = [f.astype(int) for f in decode(out.video)]
     far = max(np.abs(f - frames[0]).mean() for f in frames[1:])
@@ -127,9 +137,12 @@ def test_frames_change_where_the_arm_moves(renders, name):
     assert max(np.abs(p - pngs[0]).mean() for p in pngs[1:]) > 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
 def test_marker_shows_where_the_target_projects(renders, name):
-    """In every saved frame, where no body part hides it, the pixels around the projection
+    """Each target's marker shows, in its state's colour, where the target projects.
+
+    In every saved frame, where no body part hides it, the pixels around the projection
     of each target (camera pose and fovy) have the marker's colour for its state: green on
     target, orange tracking, red out of reach."""
     sc, out = renders[name]
@@ -161,10 +174,13 @@ def test_marker_shows_where_the_target_projects(renders, name):
         assert checked >= N - 1  # these targets are never behind the humanoid
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
 def test_metrics_put_the_hand_on_reachable_targets(renders, name):
-    """The rendered run's metrics: once converged (first frame on target), every reachable
-    target is reached within 1 mm."""
+    """The rendered run reaches every reachable target within 1 mm once converged.
+
+    Converged: from the first frame on target; a velocity-limited solver that is still
+    catching up must be closing in on every frame."""
     sc, out = renders[name]
     m = out.metrics
     assert len(m) == N
@@ -181,9 +197,12 @@ def test_metrics_put_the_hand_on_reachable_targets(renders, name):
         assert err[reach].max() < 1e-3, (name, k, err[reach].max())
 
 
+@pytest.mark.slow
 def test_outputs_are_complete_and_atomic(renders):
-    """The folder holds the MP4, one PNG per frame, the contact sheet, metrics CSV and JSON,
-    and no temporary file."""
+    """The folder holds the MP4, the PNGs, contact sheet, metrics CSV/JSON and no temporary.
+
+    Also: the contact sheet's grid, the EGL backend, and one loop time per frame within
+    the whole render's time."""
     sc, out = renders["circle"]
     names = sorted(p.name for p in out.folder.iterdir())
     assert names == sorted(
@@ -198,7 +217,9 @@ def test_outputs_are_complete_and_atomic(renders):
 
 
 def test_project_matches_the_pinhole_model():
-    """A point on the camera's axis projects to the image centre; one offset by d along the
+    """project() follows the pinhole model of the camera's pose and fovy.
+
+    A point on the camera's axis projects to the image centre; one offset by d along the
     camera's x at depth z lands f d / z pixels to the right, f = (H/2) / tan(fovy/2)."""
     m = mujoco.MjModel.from_xml_path(str(REPO / "models" / "humanoid" / "scene.xml"))
     d = mujoco.MjData(m)
@@ -215,13 +236,15 @@ def test_project_matches_the_pinhole_model():
 
 
 def test_video_writer_failure_is_one_line(tmp_path):
-    """When ffmpeg cannot write the file, writing or closing raises a one-line RenderError
-    naming the file, and nothing is left behind."""
+    """ffmpeg unable to write the file: a one-line RenderError naming it, nothing left.
+
+    The error comes from whichever call meets the encoder's failure first: a ``write``
+    (once the encoder thread has failed) or at the latest ``close`` (which waits for the
+    encoder thread), so no waiting is needed; a second ``close`` says the same."""
     w = VideoWriter(tmp_path / "gone" / "a.mp4", 64, 48, 10)
     with pytest.raises(RenderError) as info:
         for _ in range(50):
             w.write(np.zeros((48, 64, 3), np.uint8))
-            time.sleep(0.02)
         w.close()
     msg = str(info.value)
     assert msg.startswith(f"video encoding to '{tmp_path / 'gone' / 'a.mp4'}' failed (ffmpeg): ")
@@ -238,9 +261,12 @@ def test_unknown_camera_in_frame_renderer():
         FrameRenderer(m, 64, 48, "behind", 0)
 
 
+@pytest.mark.slow
 def test_gif_plot_and_interrupt(tmp_path):
-    """A GIF holds every frame at the render size; the metrics plot is 800x500; Ctrl-C
-    after frame 3 keeps a valid 3-frame video and 3 frames of metrics."""
+    """The GIF has every frame, the plot is 800x500, Ctrl-C keeps a valid shorter video.
+
+    Ctrl-C (KeyboardInterrupt from the progress callback) after frame 3 keeps a valid
+    3-frame video, 3 frames of metrics and no temporary file."""
     sc = short("both_hands", frames=4, width=64, height=48)
     sc = replace(sc, render=replace(sc.render, gif=True))
     out = render_scene(sc, tmp_path / "a")
@@ -264,9 +290,11 @@ def test_gif_plot_and_interrupt(tmp_path):
     assert not [p for p in cut.folder.iterdir() if ".tmp" in p.name]
 
 
+@pytest.mark.slow
 def test_failed_render_leaves_no_video(tmp_path, monkeypatch):
-    """A run that fails at frame 3 (not Ctrl-C) raises and leaves no MP4 under its final
-    name and no temporary file; an earlier video there is kept."""
+    """A run failing at frame 3 (not Ctrl-C) raises and leaves no new MP4 and no temporary.
+
+    An earlier video under the final name is kept as it was."""
     from humanoid_ik.errors import SolverError
     from humanoid_ik.run.runner import SceneRunner
 
@@ -288,6 +316,7 @@ def test_failed_render_leaves_no_video(tmp_path, monkeypatch):
 
 
 # ----------------------------------------------------------------------------- CLI
+@pytest.mark.slow
 def test_render_command(tmp_path, capsys):
     """`humanoid-ik render` writes the outputs and prints a summary and the files."""
     out = tmp_path / "o"
@@ -334,8 +363,7 @@ def test_render_command(tmp_path, capsys):
     ],
 )
 def test_render_command_bad_input(tmp_path, capsys, args, message):
-    """Bad input: one line on stderr naming the value and the valid choices, exit 2, and
-    nothing rendered."""
+    """Bad input: exit 2, one stderr line naming the value and the choices, nothing rendered."""
     out = tmp_path / "o"
     assert main(["render", "circle", "--out", str(out), *args]) == 2
     err = capsys.readouterr().err
@@ -371,7 +399,7 @@ def test_output_folder_not_writable():
 def test_backend_from_mujoco_gl(monkeypatch):
     """MUJOCO_GL chosen by the user is used; 'disable' and unknown names are errors."""
     assert select_backend().name == "egl"  # the tests set MUJOCO_GL=egl (conftest)
-    monkeypatch.setattr(render_mod, "_BACKEND", None)
+    monkeypatch.setattr(backend_mod, "_BACKEND", None)
     monkeypatch.setenv("MUJOCO_GL", "disable")
     with pytest.raises(RenderError, match=r"MUJOCO_GL='disable' turns rendering off"):
         select_backend()
@@ -381,6 +409,8 @@ def test_backend_from_mujoco_gl(monkeypatch):
 
 
 def _cli(tmp_path: Path, env_update: dict[str, str], unset=("MUJOCO_GL",)):
+    """Run a 2-frame ``humanoid-ik render circle`` in a child process with ``env_update``
+    and without the ``unset`` variables; returns the finished process."""
     env = {k: v for k, v in os.environ.items() if k not in (*unset, "PYOPENGL_PLATFORM")}
     env.update(env_update)
     out = tmp_path / "o"
@@ -409,6 +439,7 @@ def _cli(tmp_path: Path, env_update: dict[str, str], unset=("MUJOCO_GL",)):
     )
 
 
+@pytest.mark.slow
 def test_default_backend_is_egl(tmp_path):
     """Without MUJOCO_GL the command renders with EGL (no GPU, no display needed)."""
     proc = _cli(tmp_path, {}, unset=("MUJOCO_GL", "DISPLAY"))
@@ -416,9 +447,12 @@ def test_default_backend_is_egl(tmp_path):
     assert "frames/s (egl)" in proc.stdout and "note" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_broken_egl_falls_back_or_says_what_to_install(tmp_path):
-    """With EGL broken (no vendor library), the command falls back to OSMesa with a note, or
-    when OSMesa is missing too fails in one line naming the packages to install."""
+    """Broken EGL: the command falls back to OSMesa with a note, or says what to install.
+
+    EGL is broken by pointing it at no vendor library; when OSMesa is missing too the
+    command fails in one line naming the packages to install."""
     proc = _cli(tmp_path, {"__EGL_VENDOR_LIBRARY_FILENAMES": str(tmp_path / "none.json")})
     if proc.returncode == 0:
         assert "frames/s (osmesa)" in proc.stdout
@@ -431,6 +465,7 @@ def test_broken_egl_falls_back_or_says_what_to_install(tmp_path):
         assert "libosmesa6" in proc.stderr
 
 
+@pytest.mark.slow
 def test_backend_without_display_fails_in_one_line(tmp_path):
     """MUJOCO_GL=glfw on a machine without a display fails in one line with the hint."""
     proc = _cli(tmp_path, {"MUJOCO_GL": "glfw"}, unset=("MUJOCO_GL", "DISPLAY", "WAYLAND_DISPLAY"))
@@ -439,11 +474,40 @@ def test_backend_without_display_fails_in_one_line(tmp_path):
     assert "MUJOCO_GL=glfw" in proc.stderr and "libegl1" in proc.stderr
 
 
+def _read_terminal(fd: int, until: bytes | None, timeout: float) -> bytes:
+    """What a child process writes to a pseudo-terminal: read until the regular expression
+    ``until`` matches (``None``: until the child closes it), failing after ``timeout`` [s]."""
+    out = b""
+    deadline = time.monotonic() + timeout
+    while until is None or not re.search(until, out):
+        left = deadline - time.monotonic()
+        assert left > 0, f"no {until!r} within {timeout} s; the terminal showed {out!r}"
+        ready, _, _ = select.select([fd], [], [], left)
+        if not ready:
+            continue
+        try:
+            chunk = os.read(fd, 65536)
+        except OSError:  # EIO: every writer has closed the terminal
+            chunk = b""
+        if not chunk:
+            assert until is None, f"closed before {until!r}; the terminal showed {out!r}"
+            break
+        out += chunk
+    return out
+
+
+@pytest.mark.slow
 def test_ctrl_c_keeps_a_valid_shorter_video(tmp_path):
-    """SIGINT during `humanoid-ik render` stops it with exit 130 and leaves a valid MP4 and
-    metrics for the frames rendered so far."""
+    """SIGINT mid-render: exit 130, a valid MP4 and metrics of the frames rendered so far.
+
+    The command's stderr is a pseudo-terminal, so it shows its progress bar; the test
+    sends SIGINT once the bar counts a finished frame (no fixed wait), then checks that the
+    video, the CSV and the summary all hold the count the command reports."""
     out = tmp_path / "o"
     env = {**os.environ, "MUJOCO_GL": "egl"}
+    term, child_end = pty.openpty()
+    # a terminal of 80 columns: with no size the bar would be drawn 0 columns wide
+    fcntl.ioctl(child_end, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
     proc = subprocess.Popen(
         [
             sys.executable,
@@ -461,16 +525,20 @@ def test_ctrl_c_keeps_a_valid_shorter_video(tmp_path):
             str(out),
         ],
         stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+        stderr=child_end,
         env=env,
     )
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not list(out.glob(".circle.*.tmp.mp4")):
-        time.sleep(0.1)
-    time.sleep(1.0)
-    proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=120)
+    os.close(child_end)
+    try:
+        _read_terminal(term, rb"\b[1-9]\d*/3000\b", timeout=120)  # a frame is done
+        proc.send_signal(signal.SIGINT)
+        stderr = _read_terminal(term, None, timeout=120).decode(errors="replace")
+        stdout = proc.communicate(timeout=120)[0].decode()
+    finally:
+        os.close(term)
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
     assert proc.returncode == 130, stderr
     n = int(re.search(r"interrupted after (\d+) frame", stderr).group(1))
     assert 0 < n < 3000
@@ -478,3 +546,39 @@ def test_ctrl_c_keeps_a_valid_shorter_video(tmp_path):
     assert sum(1 for _ in open(out / "metrics.csv")) == 1 + n
     assert f"circle: {n} frame(s)" in stdout
     assert not list(out.glob(".*tmp*"))
+
+
+@pytest.mark.slow
+def test_render_is_a_sink_of_the_runner(renders):
+    """render_scene measures exactly what run_scene does: one frame loop, rendering beside it."""
+    sc, out = renders["both_hands"]
+    plain = run_scene(sc)
+    assert len(plain) == len(out.metrics) == N
+    for k in range(len(sc.effectors)):
+        for attribute in ("position_error", "iterations", "reachable", "on_target"):
+            np.testing.assert_array_equal(
+                out.metrics.series(k, attribute), plain.series(k, attribute), attribute
+            )
+    assert len(out.metrics.frame_times) == N
+
+
+@pytest.mark.slow
+def test_backend_choice_lists_what_it_changed(tmp_path):
+    """Without MUJOCO_GL, select_backend picks EGL and lists each process change it made."""
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    code = (
+        "import os\n"
+        "from humanoid_ik.outputs.render import select_backend\n"
+        "b = select_backend()\n"
+        "assert select_backend() is b\n"
+        "print(b.name, b.chosen_by, os.environ['MUJOCO_GL'])\n"
+        "print('\\n'.join(b.changes))\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0] == "egl default egl"
+    assert "os.environ['MUJOCO_GL'] = 'egl'" in lines[1:]
+    assert any(ln.endswith(".GLContext = mujoco.egl.GLContext") for ln in lines[1:]), lines

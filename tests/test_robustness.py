@@ -172,6 +172,7 @@ def test_property_bad_targets_end_in_package_errors(values):
 _ARM = Chain()
 
 
+@pytest.mark.slow
 def test_long_tracking_run_stays_bounded():
     """3000 warm-started steps of a target that leaves reach and returns: no NaN, inside
     the ranges, reachable targets within 1 mm, Python heap flat after warm-up."""

@@ -45,7 +45,9 @@ def test_chain_reach_of_the_arm(right_arm):
 
 
 def test_every_scene_reaches_its_reachable_targets_within_1mm(runs):
-    """Once an effector has converged (its first frame on target), on every later frame
+    """Every bundled scene keeps each reachable target within 1 mm once converged.
+
+    Once an effector has converged (its first frame on target), on every later frame
     where the target is within reach the site measured on MjData is within 1 mm of it
     (pose targets: and within 0.01 rad). Solvers that track under a velocity limit take
     a few frames to get there from home; the others converge on frame 0."""
@@ -69,7 +71,9 @@ def test_every_scene_reaches_its_reachable_targets_within_1mm(runs):
 
 
 def test_metrics_are_measured_on_mjdata():
-    """Achieved position is MjData's site_xpos after mj_forward, the error its distance to
+    """Metrics are read from MjData, not from the solver.
+
+    Achieved position is MjData's site_xpos after mj_forward, the error its distance to
     the target, the limit margin Chain.limit_margin of the applied joints."""
     sc = load_scene("both_hands")
     run = SceneRunner(sc)
@@ -88,7 +92,9 @@ def test_metrics_are_measured_on_mjdata():
 
 
 def test_fk_of_the_written_qpos_matches(runs):
-    """The joints written for the last frame put the palm (by an independent Chain FK)
+    """An independent FK of the last frame's joints puts the palm where the metrics say.
+
+    The joints written for the last frame put the palm (by an independent Chain FK)
     where the metrics say."""
     m = runs["circle"]
     sc = m.scene
@@ -101,7 +107,9 @@ def test_fk_of_the_written_qpos_matches(runs):
 
 
 def test_warm_start_keeps_the_arm_continuous(runs):
-    """Warm-started from the previous frame, the circle costs at most 5 iterations per frame
+    """Warm starts keep the circle cheap and the arm continuous.
+
+    Warm-started from the previous frame, the circle costs at most 5 iterations per frame
     after the first and no joint moves more than 0.1 rad between frames."""
     m = runs["circle"]
     it = m.series(0, "iterations")
@@ -117,7 +125,9 @@ def test_warm_start_keeps_the_arm_continuous(runs):
 
 
 def test_unreachable_flag_follows_the_workspace(runs):
-    """out_of_reach: the flag is false exactly while the target is farther than 0.63 m
+    """The reachable flag is false exactly while the target is beyond the arm's reach.
+
+    out_of_reach: the flag is false exactly while the target is farther than 0.63 m
     from the shoulder, it is set and cleared again, and the arm recovers to 1 mm."""
     m = runs["out_of_reach"]
     reach = m.series(0, "reachable").astype(bool)
@@ -134,7 +144,9 @@ def test_unreachable_flag_follows_the_workspace(runs):
 
 
 def test_arm_points_at_the_target_out_of_reach(runs):
-    """While the target is out of reach the arm is stretched (palm > 0.6 m from the
+    """Out of reach, the arm stretches and points at the target.
+
+    While the target is out of reach the arm is stretched (palm > 0.6 m from the
     shoulder) and points at it (within 0.1 degree)."""
     m = runs["out_of_reach"]
     for f in m.frames:
@@ -148,7 +160,9 @@ def test_arm_points_at_the_target_out_of_reach(runs):
 
 
 def test_gaze_points_the_x_axis_at_the_target():
-    """gaze: every frame the gaze site's x axis points at the target within 1e-5 rad and
+    """The gaze site's x axis points at the target, and the gaze point lies on it.
+
+    gaze: every frame the gaze site's x axis points at the target within 1e-5 rad and
     the achieved gaze point lies on that axis at the target's distance."""
     sc = load_scene("gaze")
     run = SceneRunner(sc)
@@ -183,8 +197,58 @@ def test_interrupt_keeps_the_frames_so_far():
     assert m.interrupted and len(m) == 5
 
 
+class _Recorder:
+    """A frame sink that keeps each record and the right palm's position on the data it is
+    handed; raises ``error`` at frame ``stop_at``."""
+
+    def __init__(self, stop_at=None, error=None):
+        self.records, self.palms = [], []
+        self.stop_at, self.error = stop_at, error
+
+    def add_frame(self, record, data):
+        if record.index == self.stop_at:
+            raise self.error
+        self.records.append(record)
+        self.palms.append(data.site("right_palm_site").xpos.copy())
+
+
+def test_sinks_take_every_frame_with_its_data():
+    """run() hands each frame's record and MjData at that frame to every sink, in order.
+
+    The sinks see the same records as the returned metrics, the data at that frame (the
+    palm where the record says), and the metrics get one loop time per frame."""
+    run = SceneRunner(load_scene("circle"))
+    a, b = _Recorder(), _Recorder()
+    m = run.run(frames=7, sinks=[a, b])
+    assert a.records == b.records == m.frames and [r.index for r in m.frames] == list(range(7))
+    for rec, palm in zip(a.records, a.palms, strict=True):
+        np.testing.assert_array_equal(palm, rec.samples[0].achieved)
+    assert len(m.frame_times) == 7 and all(t > 0 for t in m.frame_times)
+    assert not m.interrupted
+
+
+def test_ctrl_c_in_a_sink_keeps_the_frames_before_it():
+    """Ctrl-C inside a sink at frame 4 returns frames 0-3 with `interrupted` set.
+
+    The metrics are the last sink: a frame interrupted while an output takes it is not
+    counted, so every output holds at least the frames the metrics report."""
+    run = SceneRunner(load_scene("circle"))
+    sink = _Recorder(stop_at=4, error=KeyboardInterrupt())
+    m = run.run(sinks=[sink])
+    assert m.interrupted and len(m) == 4 and len(sink.records) == 4
+
+
+def test_an_error_in_a_sink_propagates():
+    """Any exception from a sink other than Ctrl-C leaves run() unchanged."""
+    run = SceneRunner(load_scene("circle"))
+    with pytest.raises(OSError, match="disk full"):
+        run.run(sinks=[_Recorder(stop_at=2, error=OSError("disk full"))])
+
+
 def test_csv_and_json_round_trip(tmp_path, runs):
-    """The CSV has one row per frame and effector with the documented columns; the JSON
+    """The metrics CSV and JSON hold the documented columns and the same samples.
+
+    The CSV has one row per frame and effector with the documented columns; the JSON
     holds the scene, the summary and the same samples."""
     m = runs["both_hands"]
     c = write_text(tmp_path / "m.csv", m.csv_text())
@@ -230,6 +294,7 @@ class _Joint(DLS):
     """A multi-effector solver for the hook test: records each call, solves by DLS."""
 
     name: ClassVar[str] = "joint_test"
+    solves_effectors: ClassVar[bool] = True
     calls: ClassVar[list[list[str]]] = []
 
     def solve_effectors(self, goals):
@@ -244,7 +309,9 @@ class _Joint(DLS):
 
 
 def test_multi_effector_hook(monkeypatch):
-    """A solver with solve_effectors gets every effector that uses it in one call per
+    """A multi-effector solver gets all its effectors in one call per frame.
+
+    A solver with solve_effectors gets every effector that uses it in one call per
     frame, look_at effectors included, and its results are applied and measured."""
     monkeypatch.setitem(SOLVERS, "joint_test", _Joint)
     _Joint.calls.clear()
@@ -275,7 +342,9 @@ def test_multi_effector_result_count_is_checked(monkeypatch):
 
 @pytest.mark.skipif("mink" not in SOLVERS, reason="the mink solver is not registered")
 def test_mink_moves_both_hands_and_gaze_together():
-    """With mink, the showcase's two hands and gaze are solved in one call and tracked to
+    """mink solves the showcase's hands and gaze in one call and tracks them to 1 mm.
+
+    With mink, the showcase's two hands and gaze are solved in one call and tracked to
     1 mm."""
     sc = load_scene("showcase").with_overrides(solver="mink", frames=10)
     run = SceneRunner(sc)

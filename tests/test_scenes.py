@@ -23,7 +23,7 @@ from humanoid_ik.config.scene import (
     load_scene,
 )
 from humanoid_ik.errors import SceneError
-from humanoid_ik.motion.trajectories import MOTIONS
+from humanoid_ik.motion import MOTIONS
 from humanoid_ik.solvers import SOLVERS
 
 GOOD = """
@@ -216,6 +216,13 @@ BAD = [
     ("fps = 10", "fps = 5000", "fps: expected a number > 0 and <= 1000, got 5000"),
     ("fps = 10", 'fps = "fast"', "fps: expected a number > 0, got 'fast'"),
     ('name = "probe"', 'name = "a b"', "name: expected a name of letters, digits"),
+    ('name = "probe"', 'name = "-probe"', "name: expected a name of letters, digits"),
+    ("[render]", '[render]\n"tint colour" = 1', 'render."tint colour": unknown key; expected'),
+    (
+        "radius = 0.1 }",
+        'radius = 0.1, "a\\nb" = 1 }',
+        "targets[0].motion.\"a\\nb\": unknown key for motion 'circle'",
+    ),
     ('name = "probe"', 'name = "probe"\ncolour = "red"', "colour: unknown key; expected one of"),
     ('name = "dls"', 'name = "magic"', "solver.name: expected one of two_link, ccd"),
     (
@@ -388,7 +395,7 @@ def test_broken_model_is_a_scene_error(tmp_path):
 def test_check_scene_of_a_python_built_scene():
     """A Scene built in Python is checked too; messages name it <scene 'name'>."""
     from humanoid_ik.config.scene import EffectorSpec
-    from humanoid_ik.motion.trajectories import Circle, TargetTrack
+    from humanoid_ik.motion import Circle, TargetTrack
 
     sc = Scene(
         name="py",

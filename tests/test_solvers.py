@@ -63,7 +63,13 @@ def _check_round_trips(chain: Chain, solver_name: str, targets, pose: bool):
 
 
 @pytest.mark.parametrize("arm", list(ARMS))
-@pytest.mark.parametrize("solver_name", REACHING)
+@pytest.mark.parametrize(
+    "solver_name",
+    [
+        pytest.param(n, marks=pytest.mark.slow) if n in ("ccd", "jacobian_transpose") else n
+        for n in REACHING
+    ],
+)
 def test_round_trip_position(arm, solver_name):
     """500 reachable position targets: every solution within 1 mm and inside the ranges."""
     chain = ARMS[arm]()
@@ -82,6 +88,7 @@ def test_round_trip_pose(arm, solver_name):
     assert worst_r < 1e-2
 
 
+@pytest.mark.slow
 def test_round_trip_pose_jacobian_transpose():
     """The transpose method reaches pose targets (slowly); it may miss only near the
     straight-elbow singularity, where its convergence crawls: 100 targets, right arm."""

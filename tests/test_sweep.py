@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import sys
 from pathlib import Path
@@ -16,8 +17,10 @@ from humanoid_ik.experiments.sweep import (
     import_ray,
     load_sweep,
     parse_sweep,
+    run_job,
     run_sweep,
 )
+from humanoid_ik.experiments.sweep.executors import PRELOAD
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
@@ -258,6 +261,14 @@ def test_ray_missing_names_the_extra(monkeypatch):
         import_ray()
 
 
+def test_forkserver_preload_names_the_job_modules():
+    """The local pool preloads modules that exist, among them the one run_job lives in."""
+    for name in PRELOAD:
+        importlib.import_module(name)
+    assert run_job.__module__ in PRELOAD
+
+
+@pytest.mark.slow
 def test_local_pool_and_ray_give_the_same_summary(tmp_path):
     """The summary's non-timing columns are the same on the local pool and on Ray."""
     ray = pytest.importorskip("ray")

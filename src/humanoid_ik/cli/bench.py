@@ -9,7 +9,8 @@ from typing import Any
 from humanoid_ik.cli.args import add_chain_args, chain_from_args, check_writable, names
 from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.core.models import display_model
-from humanoid_ik.experiments.bench import TASKS, run_bench
+from humanoid_ik.core.types import TARGET_KINDS
+from humanoid_ik.experiments.bench import run_bench
 from humanoid_ik.outputs.atomic import write_json
 
 __all__ = ["register"]
@@ -57,7 +58,7 @@ def register(subparsers: Any) -> None:
     """Add ``bench`` to the ``humanoid-ik`` subcommands."""
     p = subparsers.add_parser("bench", help="success rate and time per solve on random targets")
     add_chain_args(p)
-    p.add_argument("--task", default="position", choices=list(TASKS))
+    p.add_argument("--task", default="position", choices=list(TARGET_KINDS))
     p.add_argument("--solvers", metavar="a,b", help="solvers to run (default: all)")
     p.add_argument("--n", type=int, default=500, help="number of targets (default: 500)")
     p.add_argument("--seed", type=int, default=0, help="target seed (default: 0)")

@@ -69,7 +69,8 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 
 def _cmd_render(args: argparse.Namespace) -> int:
     from humanoid_ik.config.scene import check_scene, load_scene
-    from humanoid_ik.outputs.render import check_output_dir, render_scene, select_backend
+    from humanoid_ik.outputs.render.backend import select_backend
+    from humanoid_ik.outputs.render.pipeline import check_output_dir, render_scene
 
     scene = load_scene(args.scene)
     if args.solver is not None:

@@ -17,7 +17,7 @@ __all__ = ["register"]
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
-    target = Target(
+    target = Target.of(
         floats(args.target, 3, "--target"),
         None if args.quat is None else floats(args.quat, 4, "--quat"),
     )

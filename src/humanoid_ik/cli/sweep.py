@@ -10,7 +10,8 @@ from typing import Any
 
 from humanoid_ik.cli.args import UsageError, int_at_least
 from humanoid_ik.cli.progress import progress_bar
-from humanoid_ik.experiments.sweep import load_sweep, read_records, run_sweep
+from humanoid_ik.config.sweep_file import load_sweep
+from humanoid_ik.experiments.sweep import read_records, run_sweep
 
 __all__ = ["register"]
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Hashable, Sequence
+from typing import Any, TypeVar
 
 import mujoco
 import numpy as np
@@ -26,6 +27,8 @@ from humanoid_ik.errors import (
 )
 
 __all__ = ["Chain", "DEFAULT_SITE"]
+
+T = TypeVar("T")
 
 DEFAULT_SITE = "right_palm_site"
 _JOINT_TYPE_NAMES = {
@@ -85,6 +88,9 @@ class Chain:
             self.ee_kind, self.ee_id, self.ee_name = "site", sid, site
             ee_body = int(m.site_bodyid[sid])
         path_joints = self._path_joints(ee_body)
+        self.path_joint_ids = np.array(path_joints, dtype=np.int64)
+        """Every joint between the end effector's body and the world, tip first (the
+        chain's joints among them)."""
         if joints is None:
             ids = self._default_joints(path_joints)
         else:
@@ -113,7 +119,19 @@ class Chain:
         # chain columns: a view of the buffer when the dofs are contiguous, else a copy
         self._dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
         self._J = self._jac[:, self._dof_slice] if contiguous else np.zeros((6, self.n))
-        self._quat_buf = np.zeros((2, 4))
+        self._derived: dict[Hashable, Any] = {}
+
+    def derived(self, key: Hashable, build: Callable[[Chain], T]) -> T:
+        """A value derived from the chain's fixed kinematics, built by ``build(self)`` on
+        the first call for ``key`` and kept for the chain's life.
+
+        The rule: a chain's model, joints and ranges are fixed when it is made, so what is
+        computed from them alone (a solver's seed poses, its geometry) never goes stale;
+        ``build`` must leave the scratch data's joint values as it found them.
+        """
+        if key not in self._derived:
+            self._derived[key] = build(self)
+        return self._derived[key]
 
     # ----------------------------------------------------------------- structure
     def _path_joints(self, body: int) -> list[int]:

@@ -24,7 +24,9 @@ __all__ = [
     "normalize_quat",
     "decompose_three_axes",
     "hinge_angle_between",
+    "axes_meeting_point",
     "AXES",
+    "quat_mul",
 ]
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -146,6 +148,20 @@ def normalize_quat(quat: ArrayLike, tol: float = 1e-3) -> NDArray[np.float64]:
     return q / n
 
 
+def quat_mul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Hamilton product ``a * b`` of wxyz quaternions ``(4,)`` (``b`` applied first)."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.array(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ]
+    )
+
+
 def quat_to_mat(quat: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrix of a unit wxyz quaternion."""
     w, x, y, z = np.asarray(quat, dtype=np.float64)
@@ -247,6 +263,40 @@ def decompose_three_axes(
         q3 = hinge_angle_between(u3, n3, R3 @ n3)
         out.append(np.array([_wrap(q1), _wrap(q2), _wrap(q3)]))
     return out
+
+
+def axes_meeting_point(
+    anchors: ArrayLike, axes: ArrayLike, tol: float = 1e-7
+) -> NDArray[np.float64] | None:
+    """The point where every hinge axis line ``anchor_i + s u_i`` passes, or ``None``.
+
+    Least squares over the lines: ``sum_i (I - u_i u_i') S = sum_i (I - u_i u_i') a_i``
+    (each term the projection normal to unit ``u_i``), then each line is checked to
+    pass within ``tol`` [m] of ``S``. Parallel axes (a singular system) pin no point.
+
+    Args:
+        anchors: a point on each line ``(K, 3)`` [m].
+        axes: unit directions ``(K, 3)``.
+        tol: largest distance [m] of a line from the point.
+
+    Returns:
+        ``S (3,)`` [m], or ``None`` when the lines do not meet in one point.
+    """
+    A = np.asarray(anchors, dtype=np.float64)
+    U = np.asarray(axes, dtype=np.float64)
+    M = np.zeros((3, 3))
+    b = np.zeros(3)
+    for a, u in zip(A, U, strict=True):
+        P = np.eye(3) - np.outer(u, u)
+        M += P
+        b += P @ a
+    if np.linalg.cond(M) > 1e9:  # parallel axes do not pin a point
+        return None
+    S = np.asarray(np.linalg.solve(M, b), dtype=np.float64)
+    for a, u in zip(A, U, strict=True):
+        if float(np.linalg.norm(np.cross(S - a, u))) > tol:
+            return None
+    return S
 
 
 def _wrap(a: float) -> float:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -14,9 +15,23 @@ if TYPE_CHECKING:
     from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import normalize_quat, quat_to_mat
 
-__all__ = ["EffectorGoal", "IKResult", "STATUSES", "Target"]
+__all__ = ["EffectorGoal", "IKResult", "STATUSES", "Status", "TARGET_KINDS", "Target"]
 
-STATUSES = ("converged", "max_iterations", "unreachable")
+
+class Status(StrEnum):
+    """How a solve ended (a string enum: ``Status.CONVERGED == "converged"``)."""
+
+    CONVERGED = "converged"
+    """Within the solver's tolerances."""
+    MAX_ITERATIONS = "max_iterations"
+    """Stopped by the iteration cap or a stall, from every start."""
+    UNREACHABLE = "unreachable"
+    """The target lies outside what the chain can reach (analytic solvers say so)."""
+
+
+STATUSES = tuple(s.value for s in Status)
+TARGET_KINDS = ("position", "pose")
+"""What a target fixes: a position, or a pose (position and orientation)."""
 MAX_COORDINATE = 1e6  # [m]: farther targets are input mistakes (and overflow squares)
 
 
@@ -59,9 +74,10 @@ class Target:
     @classmethod
     def of(cls, target: Target | ArrayLike, quat: ArrayLike | None = None) -> Target:
         """A ``Target`` from a ``Target`` or a position (and an optional quaternion)."""
+        q = None if quat is None else np.asarray(quat, dtype=np.float64)
         if isinstance(target, Target):
-            return target if quat is None else cls(target.position, quat)
-        return cls(np.asarray(target, dtype=np.float64), quat)
+            return target if q is None else cls(target.position, q)
+        return cls(np.asarray(target, dtype=np.float64), q)
 
     @property
     def is_pose(self) -> bool:
@@ -92,13 +108,14 @@ class IKResult:
     iterations: int
     position_error: float
     orientation_error: float | None
-    status: str
+    status: Status
     solver: str = ""
     message: str = ""
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
             raise ValueError(f"status '{self.status}' unknown; statuses: {', '.join(STATUSES)}")
+        object.__setattr__(self, "status", Status(self.status))
         q = np.array(self.q, dtype=np.float64)
         q.setflags(write=False)
         object.__setattr__(self, "q", q)
@@ -108,7 +125,7 @@ class IKResult:
         q = [float(v) for v in self.q]
         return {
             "solver": self.solver,
-            "status": self.status,
+            "status": self.status.value,
             "converged": self.converged,
             "iterations": self.iterations,
             "position_error_m": self.position_error,

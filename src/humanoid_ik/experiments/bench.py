@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import on_target
 from humanoid_ik.core.rotations import mat_to_quat
-from humanoid_ik.core.types import Target
+from humanoid_ik.core.types import TARGET_KINDS, Target
 from humanoid_ik.errors import SolverError, choices
 from humanoid_ik.solvers import SOLVERS, Solver, make_solver
 
@@ -28,13 +28,10 @@ __all__ = [
     "BenchReport",
     "run_bench",
     "make_targets",
-    "TASKS",
     "Trials",
     "not_reaching",
     "run_trials",
 ]
-
-TASKS = ("position", "pose")
 
 
 @dataclass(frozen=True)
@@ -80,11 +77,21 @@ class BenchReport:
                 lines.append(f"{r.solver:<20} skipped: {r.skipped}")
                 continue
             lines.append(
-                f"{r.solver:<20} {100 * r.success_rate:>7.1f}% {r.median_ms:>10.3f} "
-                f"{r.p95_ms:>9.3f} {r.mean_iterations:>10.1f} "
-                f"{1e3 * r.max_position_error_m:>11.4f} {r.limit_violations:>10d}"
+                f"{r.solver:<20} {_cell(r.success_rate, '>7.1f', 100)}% "
+                f"{_cell(r.median_ms, '>10.3f')} {_cell(r.p95_ms, '>9.3f')} "
+                f"{_cell(r.mean_iterations, '>10.1f')} "
+                f"{_cell(r.max_position_error_m, '>11.4f', 1e3)} "
+                f"{_cell(r.limit_violations, '>10d')}"
             )
         return "\n".join(lines)
+
+
+def _cell(value: float | None, spec: str, scale: float = 1.0) -> str:
+    """``value * scale`` formatted with ``spec`` (an int unscaled keeps its type), or
+    ``-`` when there is no value."""
+    if value is None:
+        return "-"
+    return format(value if scale == 1.0 else value * scale, spec)
 
 
 def make_targets(chain: Chain, n: int, seed: int, pose: bool) -> list[Target]:
@@ -121,8 +128,8 @@ def run_bench(
     Raises:
         SolverError: unknown task or solver name, or ``n < 1``.
     """
-    if task not in TASKS:
-        raise SolverError(f"task '{task}' unknown; tasks: {choices(TASKS)}")
+    if task not in TARGET_KINDS:
+        raise SolverError(f"task '{task}' unknown; tasks: {choices(TARGET_KINDS)}")
     if n < 1:
         raise SolverError(f"n must be >= 1, got {n}")
     names = list(SOLVERS) if solvers is None else list(solvers)
@@ -175,6 +182,7 @@ def run_trials(
         targets: the targets.
         progress: called with the number of targets done after each solve.
     """
+    solver.prepare(chain)  # per-chain set-up is not part of any solve's time
     n = len(targets)
     times, iters = np.empty(n), np.empty(n)
     errs, rot_errs = np.empty(n), np.full(n, np.nan)

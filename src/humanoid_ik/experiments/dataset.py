@@ -24,8 +24,9 @@ member             shape       meaning
 =================  ==========  ==========================================================
 
 Chunks are written as they are made into raw files beside the output and packed into the
-``.npz`` at the end, which is then renamed into place (never half written); memory stays
-at a few chunks whatever ``n`` is.
+``.npz`` at the end, which is then renamed into place
+(:func:`~humanoid_ik.outputs.atomic.atomic_path`: never half written); memory stays at a
+few chunks whatever ``n`` is.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.models import display_model
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.errors import DatasetError, HumanoidIKError
+from humanoid_ik.outputs.atomic import atomic_path
 
 __all__ = [
     "BLOCK",
@@ -161,46 +163,66 @@ def write_dataset(
     }
     n, seed = int(n), int(seed)
     with tempfile.TemporaryDirectory(prefix=f".{out.name}.", dir=out.parent) as tmpdir:
-        raws = {k: open(Path(tmpdir) / f"{k}.raw", "wb") for k in _ARRAYS}  # noqa: SIM115
-        try:
-            cached: tuple[int, tuple] | None = None
-            for a in range(0, n, chunk):
-                b = min(a + chunk, n)
-                parts: list[list[np.ndarray]] = [[] for _ in _ARRAYS]
-                for k in range(a // BLOCK, (b - 1) // BLOCK + 1):
-                    if cached is None or cached[0] != k:
-                        cached = (k, make_block(chain, seed, k))
-                    lo, hi = max(a, k * BLOCK) - k * BLOCK, min(b, (k + 1) * BLOCK) - k * BLOCK
-                    for j, arr in enumerate(cached[1]):
-                        parts[j].append(arr[lo:hi])
-                for key, arrs in zip(_ARRAYS, parts, strict=True):
-                    raws[key].write(np.ascontiguousarray(np.concatenate(arrs)).tobytes())
-                if progress is not None:
-                    progress(b, n)
-        finally:
-            for fh in raws.values():
-                fh.close()
-        shapes = {"positions": (n, 3), "quats": (n, 4), "q": (n, chain.n), "closed_form_ok": (n,)}
-        dtypes = {"closed_form_ok": np.dtype(np.bool_)}
-        tmp_zip = Path(tmpdir) / "out.npz"
-        with zipfile.ZipFile(tmp_zip, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
-            for key in _ARRAYS:
-                header = {
-                    "descr": np.lib.format.dtype_to_descr(dtypes.get(key, np.dtype("<f8"))),
-                    "fortran_order": False,
-                    "shape": shapes[key],
-                }
-                with zf.open(_info(f"{key}.npy"), "w", force_zip64=True) as fh:
-                    np.lib.format.write_array_header_2_0(fh, header)
-                    with open(Path(tmpdir) / f"{key}.raw", "rb") as raw:
-                        shutil.copyfileobj(raw, fh, 1 << 20)
-            with zf.open(_info("meta.npy"), "w") as fh:
-                np.lib.format.write_array(fh, np.array(json.dumps(meta, sort_keys=True)))
-        os.replace(tmp_zip, out)
+        _write_chunks(chain, n, seed, chunk, Path(tmpdir), progress)
+        with atomic_path(out) as tmp_zip:
+            _pack(Path(tmpdir), tmp_zip, n, chain.n, meta)
     return out
 
 
+def _write_chunks(
+    chain: Chain,
+    n: int,
+    seed: int,
+    chunk: int,
+    folder: Path,
+    progress: Callable[[int, int], None] | None,
+) -> None:
+    """Make the first ``n`` pairs of seed ``seed``, ``chunk`` at a time, appending each
+    array's bytes to ``folder/<name>.raw`` (memory: a few blocks)."""
+    raws = {k: open(folder / f"{k}.raw", "wb") for k in _ARRAYS}  # noqa: SIM115
+    try:
+        cached: tuple[int, tuple] | None = None
+        for a in range(0, n, chunk):
+            b = min(a + chunk, n)
+            parts: list[list[np.ndarray]] = [[] for _ in _ARRAYS]
+            for k in range(a // BLOCK, (b - 1) // BLOCK + 1):
+                if cached is None or cached[0] != k:
+                    cached = (k, make_block(chain, seed, k))
+                lo, hi = max(a, k * BLOCK) - k * BLOCK, min(b, (k + 1) * BLOCK) - k * BLOCK
+                for j, arr in enumerate(cached[1]):
+                    parts[j].append(arr[lo:hi])
+            for key, arrs in zip(_ARRAYS, parts, strict=True):
+                raws[key].write(np.ascontiguousarray(np.concatenate(arrs)).tobytes())
+            if progress is not None:
+                progress(b, n)
+    finally:
+        for fh in raws.values():
+            fh.close()
+
+
+def _pack(folder: Path, path: Path, n: int, n_joints: int, meta: dict[str, Any]) -> None:
+    """Pack the raw arrays in ``folder`` (``n`` rows, ``n_joints`` joints) and ``meta``
+    into the ``.npz`` at ``path``, with fixed timestamps (the same content, the same
+    bytes)."""
+    shapes = {"positions": (n, 3), "quats": (n, 4), "q": (n, n_joints), "closed_form_ok": (n,)}
+    dtypes = {"closed_form_ok": np.dtype(np.bool_)}
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for key in _ARRAYS:
+            header = {
+                "descr": np.lib.format.dtype_to_descr(dtypes.get(key, np.dtype("<f8"))),
+                "fortran_order": False,
+                "shape": shapes[key],
+            }
+            with zf.open(_info(f"{key}.npy"), "w", force_zip64=True) as fh:
+                np.lib.format.write_array_header_2_0(fh, header)
+                with open(folder / f"{key}.raw", "rb") as raw:
+                    shutil.copyfileobj(raw, fh, 1 << 20)
+        with zf.open(_info("meta.npy"), "w") as fh:
+            np.lib.format.write_array(fh, np.array(json.dumps(meta, sort_keys=True)))
+
+
 def _info(name: str) -> zipfile.ZipInfo:
+    """A zip member ``name``, stored, with the fixed timestamp and mode 0644."""
     info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
     info.compress_type = zipfile.ZIP_STORED
     info.external_attr = 0o644 << 16

@@ -1,0 +1,1 @@
+"""Running a scene: the one frame loop (``runner``) and what it measured (``metrics``)."""

@@ -1,6 +1,7 @@
 """What a scene run measured: one sample per effector and frame, and the run's summary.
 
-The runner fills a :class:`Metrics` frame by frame; the outputs layer writes it to files.
+The runner fills a :class:`Metrics` frame by frame (it is one of the runner's frame
+sinks); the outputs layer writes it to files.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -103,12 +105,19 @@ class Metrics:
     Args:
         scene: the scene that ran.
         solvers: the solver label of each effector (scene order).
+
+    Attributes:
+        frames: every frame's record, in order.
+        frame_times: wall time of each frame in the runner's loop [s] (solve,
+            ``mj_forward``, measuring and every output taking the frame); not exported.
+        interrupted: Ctrl-C stopped the run early.
     """
 
     def __init__(self, scene: Scene, solvers: Sequence[str]):
         self.scene = scene
         self.solvers = list(solvers)
         self.frames: list[FrameRecord] = []
+        self.frame_times: list[float] = []
         self.interrupted = False
 
     def __len__(self) -> int:
@@ -117,6 +126,10 @@ class Metrics:
     def append(self, frame: FrameRecord) -> None:
         """Add a frame's record."""
         self.frames.append(frame)
+
+    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
+        """Add a frame's record (as a sink of the runner's loop; ``data`` is not needed)."""
+        self.frames.append(record)
 
     def series(self, effector: int, attribute: str) -> NDArray[np.float64]:
         """One attribute of one effector over the frames ``(frames,)`` (``None`` -> NaN)."""

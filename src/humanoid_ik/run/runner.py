@@ -10,19 +10,24 @@ Per frame ``i`` at ``t = i / fps``:
    position, position and orientation error, iterations, solve time, the nearest
    joint-limit margin, and whether the target is within reach.
 
-Solvers that move several effectors at once (the hook): a registered solver class with
-a ``solve_effectors(goals)`` method receives every effector that uses it in one call, as
-a sequence of :class:`EffectorGoal`, and returns one
-:class:`~humanoid_ik.core.types.IKResult` per goal, in order. Any other solver is called once
-per effector through ``Solver.solve(chain, target, q0)``.
+Solvers that move several effectors at once (the hook): a solver with
+``solves_effectors`` set receives every effector that uses it in one
+``solve_effectors(goals)`` call, as a sequence of :class:`EffectorGoal`, and returns one
+:class:`~humanoid_ik.core.types.IKResult` per goal, in order. Any other solver is called
+once per effector through ``Solver.solve(chain, target, q0)``.
+
+Outputs are collected beside the loop, not inside it: :meth:`SceneRunner.run` is the one
+frame loop of the package, and hands every frame to its *sinks* (:class:`FrameSink`), the
+run's :class:`~humanoid_ik.run.metrics.Metrics` last; the renderer, the video, the
+stills and the GIF of :mod:`humanoid_ik.outputs.render` are sinks too.
 """
 
 from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -37,6 +42,7 @@ from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.run.metrics import EffectorSample, FrameRecord, Metrics
 
 __all__ = [
+    "FrameSink",
     "SceneRunner",
     "chain_reach",
     "run_scene",
@@ -60,6 +66,15 @@ def chain_reach(chain: Chain) -> tuple[NDArray[np.float64], float]:
     pts.append(chain.position.copy())
     reach = float(sum(np.linalg.norm(b - a) for a, b in zip(pts[:-1], pts[1:], strict=True)))
     return anchors[0].copy(), reach
+
+
+class FrameSink(Protocol):
+    """Takes each frame of a run, beside :meth:`SceneRunner.run`'s loop (the metrics, the
+    renderer...)."""
+
+    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
+        """Take one frame: its ``record`` and the scene's ``data`` at that frame (after
+        ``mj_forward``; read it now, the next frame overwrites it)."""
 
 
 class SceneRunner:
@@ -100,7 +115,7 @@ class SceneRunner:
             solver = None
             if key in by_spec:
                 solver = self._groups[by_spec[key]][0]
-            if solver is not None and callable(getattr(solver, "solve_effectors", None)):
+            if solver is not None and solver.solves_effectors:
                 self._groups[by_spec[key]][1].append(i)
                 continue
             if solver is None:
@@ -146,7 +161,7 @@ class SceneRunner:
         for solver, members in self._groups:
             for i in members:
                 self.chains[i].load(d)
-            if callable(getattr(solver, "solve_effectors", None)):  # several effectors at once
+            if solver.solves_effectors:  # several effectors at once
                 goals = [
                     EffectorGoal(
                         self.chains[i], targets[i], self.q[i], self.scene.effectors[i].task
@@ -223,24 +238,37 @@ class SceneRunner:
         self,
         frames: int | None = None,
         on_frame: Callable[[FrameRecord], None] | None = None,
+        sinks: Sequence[FrameSink] = (),
     ) -> Metrics:
-        """Run ``frames`` frames (default: the whole scene) from the home pose.
+        """Run ``frames`` frames (default: the whole scene) from the home pose: the frame
+        loop.
+
+        Per frame: :meth:`step`, then every sink in order gets the record and
+        ``self.data``, then the returned metrics (also a sink) and the frame's loop time,
+        then ``on_frame``.
 
         Args:
             frames: how many frames.
             on_frame: called after each frame (with ``self.data`` at that frame).
+            sinks: the outputs that take each frame (e.g. the renderer).
 
         Returns:
-            The metrics of every frame run. Ctrl-C (``KeyboardInterrupt``) stops the run
-            early: the frames so far are returned with ``interrupted`` set.
+            The metrics of every frame run, with ``frame_times``: the wall time [s] of each
+            frame's step and sinks. Ctrl-C (``KeyboardInterrupt``) stops the run early: the
+            frames so far are returned with ``interrupted`` set. Any other exception
+            propagates (the sinks are left to their owner to abort).
         """
         n = self.n_frames if frames is None else frames
         self.reset()
         metrics = Metrics(self.scene, self.solver_labels())
+        outputs = (*sinks, metrics)
         try:
             for i in range(n):
+                t0 = time.perf_counter()
                 rec = self.step(i)
-                metrics.append(rec)
+                for sink in outputs:
+                    sink.add_frame(rec, self.data)
+                metrics.frame_times.append(time.perf_counter() - t0)
                 if on_frame is not None:
                     on_frame(rec)
         except KeyboardInterrupt:

@@ -1,9 +1,10 @@
-"""The solver protocol: options, applicability, the gaze axis, and result measuring."""
+"""The solver protocol: typed options, applicability, the gaze axis, result measuring,
+and the case of several effectors solved at once."""
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
+from collections.abc import Iterator, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -11,17 +12,29 @@ from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import axis_vector, pose_error
-from humanoid_ik.core.types import IKResult, Target
-from humanoid_ik.errors import SolverError, choices
+from humanoid_ik.core.types import EffectorGoal, IKResult, Status, Target
+from humanoid_ik.errors import SolverError
+from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["Solver"]
 
 
 class Solver(ABC):
-    """An IK method. Subclasses set ``name``, ``defaults`` and implement ``_solve``.
+    """An IK method. Subclasses set ``name``, ``summary``, ``Options`` and implement
+    ``_solve``.
 
-    Options are keyword arguments checked against ``defaults``; every solver takes
-    ``tol`` (position tolerance [m]) and ``rot_tol`` (orientation tolerance [rad]).
+    Options are keyword arguments parsed into the solver's ``Options`` dataclass
+    (:class:`~humanoid_ik.solvers.options.SolverOptions`: every solver takes ``tol``
+    [m] and ``rot_tol`` [rad]); the solver reads them as ``self.options``.
+
+    Several effectors at once: a solver that moves several chains in one problem sets
+    ``solves_effectors`` and overrides :meth:`solve_effectors`; the scene runner then
+    hands it every effector that uses it, in one call per frame. Any other solver is
+    called once per effector through :meth:`solve`.
+
+    Caches: what a solver derives from a chain alone (seed poses, manipulability at
+    home, closed-form geometry) is kept with the chain (:meth:`Chain.derived`) and built
+    by :meth:`prepare`, which timing loops call before they start the clock.
     """
 
     name: ClassVar[str]
@@ -29,68 +42,49 @@ class Solver(ABC):
     supports_orientation: ClassVar[bool] = False
     reaches: ClassVar[bool] = True
     """True for solvers that move the site onto the target (the bench's reaching tasks)."""
-    defaults: ClassVar[dict[str, Any]] = {}
-    _common: ClassVar[dict[str, Any]] = {"tol": 1e-4, "rot_tol": 1e-3}
+    solves_effectors: ClassVar[bool] = False
+    """True for solvers that solve several effectors jointly (:meth:`solve_effectors`)."""
+    Options: ClassVar[type[SolverOptions]] = SolverOptions
+    options: SolverOptions
 
     def __init__(self, **options: Any):
-        valid = {**self._common, **self.defaults}
-        for key, value in options.items():
-            if key not in valid:
-                raise SolverError(
-                    f"option '{key}' unknown for solver '{self.name}'; options: {choices(valid)}"
-                )
-            valid[key] = self._check_option(key, value, valid[key])
-        self.options = valid
-        for key, value in valid.items():
-            setattr(self, key, value)
+        self.options = self.Options.parse(self.name, options)
         self._buffers = (np.empty(6), np.empty((2, 4)))  # error vector, quaternion scratch
 
-    def _check_option(self, key: str, value: Any, default: Any) -> Any:
-        if isinstance(default, bool):
-            if not isinstance(value, bool):
-                raise SolverError(
-                    f"option '{key}' of solver '{self.name}' must be true or false, got {value!r}"
-                )
-            return value
-        if isinstance(default, (int, float)):
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise SolverError(
-                    f"option '{key}' of solver '{self.name}' must be a number, got {value!r}"
-                )
-            if not math.isfinite(value) or value < 0:
-                raise SolverError(
-                    f"option '{key}' of solver '{self.name}' must be a finite "
-                    f"number >= 0, got {value!r}"
-                )
-            if isinstance(default, int):
-                if value != int(value):
-                    raise SolverError(
-                        f"option '{key}' of solver '{self.name}' must be an integer, got {value!r}"
-                    )
-                return int(value)
-            return float(value)
-        if isinstance(default, str):
-            allowed = getattr(self, f"{key}_choices", None)
-            if not isinstance(value, str) or (allowed and value not in allowed):
-                raise SolverError(
-                    f"option '{key}' of solver '{self.name}' is {value!r}; "
-                    f"choices: {choices(allowed or [])}"
-                )
-            return value
-        return value
+    def prepare(self, chain: Chain) -> None:
+        """Build what the solver derives from ``chain`` alone, so a later timed solve
+        does not pay for it (a no-op for solvers that derive nothing)."""
+        return None
 
-    def starts(self, chain: Chain, q0: NDArray[np.float64], target: Target | None = None):
-        """``q0``, then ``restarts`` seeded random in-range poses (``seed`` option).
+    def solve_effectors(self, goals: Sequence[EffectorGoal]) -> list[IKResult]:
+        """Solve several effectors jointly (only where ``solves_effectors`` is set).
+
+        Args:
+            goals: one goal per effector, all chains on one model.
+
+        Returns:
+            One result per goal, in order.
+
+        Raises:
+            SolverError: this solver solves one effector at a time.
+        """
+        raise SolverError(f"solver '{self.name}' solves one effector at a time")
+
+    def starts(
+        self, chain: Chain, q0: NDArray[np.float64], target: Target | None = None
+    ) -> Iterator[NDArray[np.float64]]:
+        """``q0``, then ``restarts`` seeded random in-range poses (``seed`` option) for
+        solvers with those options.
 
         Solvers with a better restart rule use ``target`` (see the Jacobian family)."""
         yield q0.copy()
-        rng = np.random.default_rng(self.options.get("seed", 0))
-        for _ in range(int(self.options.get("restarts", 0))):
+        rng = np.random.default_rng(getattr(self.options, "seed", 0))
+        for _ in range(getattr(self.options, "restarts", 0)):
             yield chain.random_q(rng)
 
     def gave_up(self) -> str:
         """The message of a result that did not converge from any start."""
-        starts = int(self.options.get("restarts", 0)) + 1
+        starts = getattr(self.options, "restarts", 0) + 1
         return (
             f"no start of {starts} converged; the closest pose is returned "
             "(the target may be out of reach within the joint ranges)"
@@ -99,7 +93,7 @@ class Solver(ABC):
     def gaze_axis(self) -> NDArray[np.float64]:
         """The unit axis ``(3,)`` of the site frame this solver aims at a ``look_at``
         target (``x`` unless an option chooses another)."""
-        return axis_vector(self.options.get("forward_axis", "x"))
+        return axis_vector(getattr(self.options, "forward_axis", "x"))
 
     def applicable(self, chain: Chain, pose: bool = False) -> str | None:
         """``None`` when the solver can solve this chain and task, else the reason it cannot."""
@@ -136,7 +130,7 @@ class Solver(ABC):
         target: Target,
         q: NDArray[np.float64],
         iterations: int,
-        status: str | None = None,
+        status: Status | None = None,
         message: str = "",
     ) -> IKResult:
         """Measure ``q`` with MuJoCo FK and wrap it; status from the tolerances unless given."""
@@ -144,12 +138,13 @@ class Solver(ABC):
         ep, er = pose_error(
             chain.position, chain.rotation, target.position, target.quat, *self._buffers
         )
-        ok = ep < self.tol and (target.quat is None or er < self.rot_tol)
+        o = self.options
+        ok = ep < o.tol and (target.quat is None or er < o.rot_tol)
         if status is None:
-            status = "converged" if ok else "max_iterations"
+            status = Status.CONVERGED if ok else Status.MAX_ITERATIONS
         return IKResult(
             q=q.copy(),
-            converged=status == "converged",
+            converged=status is Status.CONVERGED,
             iterations=iterations,
             position_error=ep,
             orientation_error=None if target.quat is None else er,

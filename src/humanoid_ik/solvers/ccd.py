@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -11,9 +12,34 @@ import numpy as np
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import hinge_angle_between
 from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["CCD"]
+
+
+@dataclass(frozen=True)
+class CCDOptions(SolverOptions):
+    """Options of ``ccd``.
+
+    Attributes:
+        nudge: fraction of each joint's best angle applied per update, in (0, 1].
+        max_iterations: sweeps per start.
+        restarts: further starts (seeded random poses) after a stall.
+        stall_window: sweeps without progress that count as a stall.
+        seed: seed of the random restarts.
+    """
+
+    nudge: float = 1.0
+    max_iterations: int = 300
+    restarts: int = 10
+    stall_window: int = 15
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.nudge <= 1.0:
+            raise SolverError(f"option 'nudge' of solver 'ccd' must be in (0, 1], got {self.nudge}")
 
 
 class CCD(Solver):
@@ -33,20 +59,8 @@ class CCD(Solver):
 
     name: ClassVar[str] = "ccd"
     summary: ClassVar[str] = "cyclic coordinate descent with a nudge factor"
-    defaults: ClassVar[dict[str, Any]] = {
-        "nudge": 1.0,
-        "max_iterations": 300,
-        "restarts": 10,
-        "stall_window": 15,
-        "seed": 0,
-    }
-
-    def __init__(self, **options: Any):
-        super().__init__(**options)
-        if not 0.0 < self.nudge <= 1.0:
-            from humanoid_ik.errors import SolverError
-
-            raise SolverError(f"option 'nudge' of solver 'ccd' must be in (0, 1], got {self.nudge}")
+    Options: ClassVar[type[SolverOptions]] = CCDOptions
+    options: CCDOptions
 
     def _solve(self, chain: Chain, target: Target, q0: np.ndarray) -> IKResult:
         best_q, best_err = q0.copy(), math.inf
@@ -58,7 +72,7 @@ class CCD(Solver):
                 best_q, best_err = q.copy(), err
             if done:
                 break
-        if best_err < self.tol:
+        if best_err < self.options.tol:
             return self._result(chain, target, best_q, sweeps)
         return self._result(
             chain,
@@ -74,11 +88,11 @@ class CCD(Solver):
         chain.set_q(q)
         jids, qadr = chain.joint_ids, chain.qpos_adr
         lo, hi = chain.lower, chain.upper
-        c = self.nudge
-        window = max(2, self.stall_window)
+        c = self.options.nudge
+        window = max(2, self.options.stall_window)
         history = np.full(window, math.inf)
         err = math.inf
-        for sweep in range(1, self.max_iterations + 1):
+        for sweep in range(1, self.options.max_iterations + 1):
             for i in range(chain.n - 1, -1, -1):
                 j = jids[i]
                 anchor = d.xanchor[j]
@@ -89,9 +103,9 @@ class CCD(Solver):
                 mujoco.mj_kinematics(m, d)
             diff = chain.position - pd
             err = math.sqrt(float(diff @ diff))
-            if err < self.tol:
+            if err < self.options.tol:
                 return True, err, sweep
             if sweep > window and err > 0.99 * history[sweep % window]:
                 return False, err, sweep
             history[sweep % window] = err
-        return False, err, self.max_iterations
+        return False, err, self.options.max_iterations

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -11,10 +12,26 @@ import numpy as np
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import gaze_error
 from humanoid_ik.core.rotations import AXES, hinge_angle_between
-from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.options import SolverOptions, option
 
 __all__ = ["LookAt"]
+
+
+@dataclass(frozen=True)
+class LookAtOptions(SolverOptions):
+    """Options of ``look_at``.
+
+    Attributes:
+        rot_tol: the gaze's angle off the target that counts as aimed [rad].
+        forward_axis: the site axis aimed at the target: ``x``, ``y`` or ``z``.
+        max_iterations: sweeps over the chain's hinges.
+    """
+
+    rot_tol: float = 1e-6
+    forward_axis: str = option("x", valid=tuple(AXES))
+    max_iterations: int = 50
 
 
 class LookAt(Solver):
@@ -33,12 +50,8 @@ class LookAt(Solver):
     name: ClassVar[str] = "look_at"
     reaches: ClassVar[bool] = False
     summary: ClassVar[str] = "aim a forward axis of the site at the target (gaze)"
-    forward_axis_choices: ClassVar[tuple[str, ...]] = ("x", "y", "z")
-    defaults: ClassVar[dict[str, Any]] = {
-        "forward_axis": "x",
-        "max_iterations": 50,
-    }
-    _common: ClassVar[dict[str, Any]] = {"tol": 1e-4, "rot_tol": 1e-6}
+    Options: ClassVar[type[SolverOptions]] = LookAtOptions
+    options: LookAtOptions
 
     def applicable(self, chain: Chain, pose: bool = False) -> str | None:
         if pose:
@@ -47,7 +60,7 @@ class LookAt(Solver):
 
     def _solve(self, chain: Chain, target: Target, q0: np.ndarray) -> IKResult:
         m, d = chain.model, chain.data
-        k = AXES[self.forward_axis]
+        k = AXES[self.options.forward_axis]
         axis = self.gaze_axis()
         q = q0.copy()
         chain.set_q(q)
@@ -55,7 +68,7 @@ class LookAt(Solver):
         lo, hi = chain.lower, chain.upper
         pd = target.position
         angle = math.pi
-        for sweep in range(1, self.max_iterations + 1):
+        for sweep in range(1, self.options.max_iterations + 1):
             for i in range(chain.n - 1, -1, -1):
                 j = jids[i]
                 want = pd - chain.position  # the look-at frame's forward column, unnormalised
@@ -65,21 +78,21 @@ class LookAt(Solver):
                 d.qpos[qadr[i]] = q[i]
                 mujoco.mj_kinematics(m, d)
             angle = gaze_error(chain.position, chain.rotation, axis, pd).angle
-            if angle < self.rot_tol:
+            if angle < self.options.rot_tol:
                 return self._gaze_result(chain, target, q, sweep)
-        return self._gaze_result(chain, target, q, self.max_iterations)
+        return self._gaze_result(chain, target, q, self.options.max_iterations)
 
     def _gaze_result(self, chain: Chain, target: Target, q: np.ndarray, it: int) -> IKResult:
         chain.set_q(q)
         miss, ang = gaze_error(chain.position, chain.rotation, self.gaze_axis(), target.position)
-        ok = ang < self.rot_tol
+        ok = ang < self.options.rot_tol
         return IKResult(
             q=q.copy(),
             converged=ok,
             iterations=it,
             position_error=miss,
             orientation_error=ang,
-            status="converged" if ok else "max_iterations",
+            status=Status.CONVERGED if ok else Status.MAX_ITERATIONS,
             solver=self.name,
             message="" if ok else "the gaze cannot turn far enough within the joint ranges",
         )

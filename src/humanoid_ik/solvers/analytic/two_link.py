@@ -10,6 +10,7 @@ then decomposed onto the model's three shoulder hinges.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
@@ -17,12 +18,14 @@ from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import (
+    axes_meeting_point,
     axis_angle_matrix,
     decompose_three_axes,
     rotation_between,
 )
-from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.options import SolverOptions, option
 
 __all__ = ["TwoLink", "law_of_cosines", "polar_angles", "Shell"]
 
@@ -74,6 +77,19 @@ class Shell(NamedTuple):
     """Outer radius [m]: ``sqrt((l1 + l2)^2 + h^2)``."""
 
 
+@dataclass(frozen=True)
+class TwoLinkOptions(SolverOptions):
+    """Options of ``two_link``.
+
+    Attributes:
+        method: the shoulder rotation: ``polar`` or ``angle_axis``.
+        branch: the elbow branch: ``auto`` (nearest the start), ``positive``, ``negative``.
+    """
+
+    method: str = option("polar", valid=("polar", "angle_axis"))
+    branch: str = option("auto", valid=("auto", "positive", "negative"))
+
+
 class TwoLink(Solver):
     """Analytic shoulder + elbow solve.
 
@@ -94,9 +110,8 @@ class TwoLink(Solver):
 
     name: ClassVar[str] = "two_link"
     summary: ClassVar[str] = "analytic: law of cosines + polar or angle/axis shoulder"
-    method_choices: ClassVar[tuple[str, ...]] = ("polar", "angle_axis")
-    branch_choices: ClassVar[tuple[str, ...]] = ("auto", "positive", "negative")
-    defaults: ClassVar[dict[str, Any]] = {"method": "polar", "branch": "auto"}
+    Options: ClassVar[type[SolverOptions]] = TwoLinkOptions
+    options: TwoLinkOptions
 
     # ------------------------------------------------------------------ structure
     def applicable(self, chain: Chain, pose: bool = False) -> str | None:
@@ -114,7 +129,7 @@ class TwoLink(Solver):
                 f"{chain.n} joint(s)"
             )
         anchors, axes = chain.joint_axes()
-        S = _meeting_point(anchors[:3], axes[:3])
+        S = axes_meeting_point(anchors[:3], axes[:3])
         if S is None:
             return "two_link needs the first three hinge axes to meet at one point (a shoulder)"
         # the elbow must change the shoulder-to-end distance
@@ -134,7 +149,7 @@ class TwoLink(Solver):
         z[:4] = 0.0
         chain.set_q(z)
         anchors, axes = chain.joint_axes()
-        S = _meeting_point(anchors[:3], axes[:3])
+        S = axes_meeting_point(anchors[:3], axes[:3])
         E, u = anchors[3], axes[3]
         P0 = chain.position.copy()
         a, b0 = S - E, P0 - E
@@ -184,7 +199,7 @@ class TwoLink(Solver):
                 f"target is {outside:.6g} m {where} the reachable shell "
                 f"[{shell.r_min:.4f}, {shell.r_max:.4f}] m around the shoulder"
             )
-            return self._result(chain, target, q, 1, status="unreachable", message=msg)
+            return self._result(chain, target, q, 1, status=Status.UNREACHABLE, message=msg)
         if best[0] > 0.0:
             res = self._result(chain, target, q, 1)
             if not res.converged:
@@ -193,7 +208,7 @@ class TwoLink(Solver):
                     target,
                     q,
                     1,
-                    status="unreachable",
+                    status=Status.UNREACHABLE,
                     message="no shoulder and elbow angles inside the joint ranges reach the target",
                 )
             return res
@@ -210,9 +225,9 @@ class TwoLink(Solver):
                     q = q + shift
                     break
             cands.append((sign, q))
-        if self.branch == "positive":
+        if self.options.branch == "positive":
             return [q for _, q in cands if q >= 0] or [max(q for _, q in cands)]
-        if self.branch == "negative":
+        if self.options.branch == "negative":
             return [q for _, q in cands if q < 0] or [min(q for _, q in cands)]
         qs = [q for _, q in cands]
         if abs(qs[0] - qs[1]) < 1e-12:
@@ -222,7 +237,7 @@ class TwoLink(Solver):
 
     def shoulder_rotation(self, v0: NDArray[np.float64], t: NDArray[np.float64]) -> NDArray:
         """World rotation ``(3, 3)`` about the shoulder that points ``v0`` along ``t``."""
-        if self.method == "polar":
+        if self.options.method == "polar":
             theta_align, beta, gamma = polar_angles(v0, t)
             x = np.array([1.0, 0.0, 0.0]) * float(np.linalg.norm(v0))
             _, u_align = rotation_between(v0, x - v0)
@@ -235,23 +250,6 @@ class TwoLink(Solver):
 
 
 _RANGE_SLACK = 1e-9  # [rad]: a decomposition's rounding at a range end
-
-
-def _meeting_point(anchors: NDArray, axes: NDArray, tol: float = 1e-7) -> NDArray | None:
-    """The point where all lines ``anchor + s axis`` meet, or ``None``."""
-    M = np.zeros((3, 3))
-    b = np.zeros(3)
-    for a, u in zip(anchors, axes, strict=True):
-        P = np.eye(3) - np.outer(u, u)
-        M += P
-        b += P @ a
-    if np.linalg.cond(M) > 1e9:  # parallel axes do not pin a point
-        return None
-    S = np.linalg.solve(M, b)
-    for a, u in zip(anchors, axes, strict=True):
-        if float(np.linalg.norm(np.cross(S - a, u))) > tol:
-            return None
-    return S
 
 
 def _fit_shoulder(
@@ -271,7 +269,7 @@ def _fit_shoulder(
     """
     lo, hi = chain.lower[:3], chain.upper[:3]
     t_hat = t / np.linalg.norm(t)
-    best = [np.zeros(3), math.inf, 0.0]  # q, violation, twist
+    best: list[Any] = [np.zeros(3), math.inf, 0.0]  # q, violation, twist
 
     def trial(psi: float) -> bool:
         Rt = R if psi == 0.0 else axis_angle_matrix(t_hat, psi) @ R

@@ -3,19 +3,34 @@
 from __future__ import annotations
 
 import math
-import weakref
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.solvers.jacobian.loop import JacobianSolver
+from humanoid_ik.solvers.jacobian.loop import JacobianOptions, JacobianSolver
+from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["DLS"]
 
-_W0: weakref.WeakKeyDictionary[Chain, dict[int, float]] = weakref.WeakKeyDictionary()
+
+@dataclass(frozen=True)
+class DLSOptions(JacobianOptions):
+    """Options of ``dls``.
+
+    Attributes:
+        damping: largest damping ``lambda`` [m], reached at a singularity.
+        min_damping: damping everywhere [m].
+        singular_fraction: manipulability, as a fraction of that at home, below which
+            the damping grows.
+    """
+
+    damping: float = 0.05
+    min_damping: float = 1e-3
+    singular_fraction: float = 0.1
 
 
 class DLS(JacobianSolver):
@@ -31,21 +46,18 @@ class DLS(JacobianSolver):
 
     name: ClassVar[str] = "dls"
     summary: ClassVar[str] = "damped least squares, damping adapts near singularities"
-    defaults: ClassVar[dict[str, Any]] = {
-        "damping": 0.05,
-        "min_damping": 1e-3,
-        "singular_fraction": 0.1,
-    }
+    Options: ClassVar[type[SolverOptions]] = DLSOptions
+    options: DLSOptions
+
+    def prepare(self, chain: Chain) -> None:
+        """Build the seed library and the home manipulability of both task sizes."""
+        super().prepare(chain)
+        for rows in (3, 6):
+            _manipulability_at_home(chain, rows)
 
     def _prepare(self, chain: Chain, rows: int) -> None:
-        per_chain = _W0.setdefault(chain, {})
-        if rows not in per_chain:  # manipulability at home, once per chain and task
-            saved = chain.q
-            chain.set_q(chain.q_home)
-            J = chain._jacobian()[:rows]
-            per_chain[rows] = math.sqrt(max(np.linalg.det(J @ J.T), 0.0))
-            chain.set_q(saved)
-        self._w0 = self.singular_fraction * per_chain[rows]
+        w_home = _manipulability_at_home(chain, rows)
+        self._w0 = self.options.singular_fraction * w_home
         if getattr(self, "_rows", None) != rows:
             self._rows = rows
             self._A = np.empty((rows, rows))
@@ -57,7 +69,7 @@ class DLS(JacobianSolver):
     def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
         A, L, y = self._A, self._L, self._y
         np.matmul(J, J.T, out=A)
-        self._A_diag += self.min_damping * self.min_damping
+        self._A_diag += self.options.min_damping * self.options.min_damping
         L[:] = A
         mujoco.mju_cholFactor(L, 1e-15)  # A = L L' (lower triangle, in place)
         if self._w0 > 0.0:
@@ -65,7 +77,20 @@ class DLS(JacobianSolver):
             if w < self._w0:
                 s = 1.0 - w / self._w0
                 L[:] = A
-                self._L_diag += self.damping * self.damping * s * s
+                self._L_diag += self.options.damping * self.options.damping * s * s
                 mujoco.mju_cholFactor(L, 1e-15)
         mujoco.mju_cholSolve(y, L, e)
         return J.T @ y
+
+
+def _manipulability_at_home(chain: Chain, rows: int) -> float:
+    """``sqrt(det(J J'))`` of the first ``rows`` Jacobian rows at the home pose, computed
+    once per chain and kept with it."""
+
+    def build(c: Chain) -> float:
+        saved = c.q
+        J = c.jacobian(c.q_home)[:rows]
+        c.set_q(saved)
+        return math.sqrt(max(np.linalg.det(J @ J.T), 0.0))
+
+    return chain.derived(("manipulability_at_home", rows), build)

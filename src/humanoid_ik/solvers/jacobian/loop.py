@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from abc import abstractmethod
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import mujoco
@@ -24,30 +25,48 @@ from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
-from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.jacobian.seeds import seed_library
+from humanoid_ik.solvers.options import SolverOptions
 
-__all__ = ["JacobianSolver"]
+__all__ = ["JacobianOptions", "JacobianSolver"]
+
+
+@dataclass(frozen=True)
+class JacobianOptions(SolverOptions):
+    """Options of the Jacobian family's loop.
+
+    Attributes:
+        max_iterations: iterations per start.
+        restarts: further starts after a stall (seed-library poses, random poses).
+        max_step: largest joint step per iteration [rad].
+        nullspace_gain: pull toward the home pose in the task's null space.
+        stall_window: iterations without a 1 % gain that count as a stall.
+        seed: seed of the random restarts.
+        library_seeds: seed-library poses nearest the target among the restarts.
+    """
+
+    max_iterations: int = 100
+    restarts: int = 20
+    max_step: float = 0.8
+    nullspace_gain: float = 0.0
+    stall_window: int = 8
+    seed: int = 0
+    library_seeds: int = 8
 
 
 class JacobianSolver(Solver):
     """Base of ``jacobian_transpose``, ``pseudoinverse`` and ``dls``."""
 
     supports_orientation: ClassVar[bool] = True
-    loop_defaults: ClassVar[dict[str, Any]] = {
-        "max_iterations": 100,
-        "restarts": 20,
-        "max_step": 0.8,
-        "nullspace_gain": 0.0,
-        "stall_window": 8,
-        "seed": 0,
-        "library_seeds": 8,
-    }
+    Options: ClassVar[type[SolverOptions]] = JacobianOptions
+    options: JacobianOptions
 
-    def __init_subclass__(cls, **kwargs: Any) -> None:
-        super().__init_subclass__(**kwargs)
-        cls.defaults = {**JacobianSolver.loop_defaults, **cls.defaults}
+    def prepare(self, chain: Chain) -> None:
+        """Build the chain's seed library (used by the restarts) before any timed solve."""
+        if self.options.restarts and self.options.library_seeds:
+            seed_library(chain)
 
     def _prepare(self, chain: Chain, rows: int) -> None:
         """Per-solve set-up of the step rule (before the loop)."""
@@ -64,12 +83,12 @@ class JacobianSolver(Solver):
         """``q0``, then library poses nearest ``target`` alternating with seeded random ones
         (the library's nearest poses may share one blocked basin; random ones do not)."""
         yield q0.copy()
-        rng = np.random.default_rng(self.seed)
+        rng = np.random.default_rng(self.options.seed)
         near: Any = ()
-        if self.restarts and target is not None and self.library_seeds:
-            near = seed_library(chain).nearest(target, self.library_seeds)
+        if self.options.restarts and target is not None and self.options.library_seeds:
+            near = seed_library(chain).nearest(target, self.options.library_seeds)
         used = 0
-        for k in range(self.restarts):
+        for k in range(self.options.restarts):
             if k % 2 == 0 and used < len(near):
                 used += 1
                 yield near[used - 1].copy()
@@ -92,9 +111,10 @@ class JacobianSolver(Solver):
         jacp, jacr, eid = chain._jacp, chain._jacr, chain.ee_id
         jac_fn = mujoco.mj_jacSite if site else mujoco.mj_jacBody
         gather = chain._dof_slice is None
-        tol, rot_tol = self.tol, self.rot_tol
-        max_step, gain = self.max_step, self.nullspace_gain
-        window = max(2, self.stall_window)
+        tol, rot_tol = self.options.tol, self.options.rot_tol
+        max_iterations = self.options.max_iterations
+        max_step, gain = self.options.max_step, self.options.nullspace_gain
+        window = max(2, self.options.stall_window)
         kinematics, com_pos = mujoco.mj_kinematics, mujoco.mj_comPos
         self._prepare(chain, rows)
 
@@ -104,7 +124,7 @@ class JacobianSolver(Solver):
         for q in self.starts(chain, q0, target):
             history = [math.inf] * window
             d.qpos[qadr] = q
-            for it in range(self.max_iterations + 1):
+            for it in range(max_iterations + 1):
                 kinematics(m, d)
                 ep, er = pose_error(xpos, xmat, tp, tq, e, quat_buf)
                 if pose:
@@ -114,11 +134,14 @@ class JacobianSolver(Solver):
                     best_cost = cost
                     best_q[:] = q
                 if ep < tol and er_n < rot_tol:  # kinematics are current: no second FK
+                    er_out = er_n if pose else None
                     return IKResult(
-                        q, True, iterations + it, ep, er_n if pose else None, "converged", self.name
+                        q, True, iterations + it, ep, er_out, Status.CONVERGED, self.name
                     )
                 slot = it % window
-                if it == self.max_iterations or (it >= window and cost > 0.99 * history[slot]):
+                if it == self.options.max_iterations or (
+                    it >= window and cost > 0.99 * history[slot]
+                ):
                     iterations += it
                     break
                 history[slot] = cost

@@ -2,14 +2,27 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.solvers.jacobian.loop import JacobianSolver
+from humanoid_ik.solvers.jacobian.loop import JacobianOptions, JacobianSolver
+from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["PseudoInverse"]
+
+
+@dataclass(frozen=True)
+class PseudoInverseOptions(JacobianOptions):
+    """Options of ``pseudoinverse``.
+
+    Attributes:
+        rcond: singular values below ``rcond`` times the largest are cut.
+    """
+
+    rcond: float = 1e-4
 
 
 class PseudoInverse(JacobianSolver):
@@ -18,7 +31,8 @@ class PseudoInverse(JacobianSolver):
 
     name: ClassVar[str] = "pseudoinverse"
     summary: ClassVar[str] = "Jacobian pseudo-inverse (SVD)"
-    defaults: ClassVar[dict[str, Any]] = {"rcond": 1e-4}
+    Options: ClassVar[type[SolverOptions]] = PseudoInverseOptions
+    options: PseudoInverseOptions
 
     def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.linalg.pinv(J, rcond=self.rcond) @ e
+        return np.linalg.pinv(J, rcond=self.options.rcond) @ e

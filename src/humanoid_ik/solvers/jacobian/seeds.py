@@ -8,8 +8,6 @@ vectors and their FK (from MuJoCo), built once per chain.
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -17,10 +15,6 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import Target
 
 __all__ = ["SeedLibrary", "seed_library"]
-
-_CACHE: weakref.WeakKeyDictionary[Chain, dict[tuple[int, int], SeedLibrary]] = (
-    weakref.WeakKeyDictionary()
-)
 
 
 class SeedLibrary:
@@ -58,9 +52,6 @@ class SeedLibrary:
 
 
 def seed_library(chain: Chain, size: int = 4000, seed: int = 7) -> SeedLibrary:
-    """The chain's library of ``size`` poses, built on first use and kept with the chain."""
-    per_chain = _CACHE.setdefault(chain, {})
-    key = (size, seed)
-    if key not in per_chain:
-        per_chain[key] = SeedLibrary(chain, size, seed)
-    return per_chain[key]
+    """The chain's library of ``size`` poses, built on first use and kept with the chain
+    (:meth:`Chain.derived`)."""
+    return chain.derived(("seed_library", size, seed), lambda c: SeedLibrary(c, size, seed))

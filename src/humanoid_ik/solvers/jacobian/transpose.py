@@ -2,15 +2,31 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.solvers.jacobian.loop import JacobianSolver
+from humanoid_ik.solvers.jacobian.loop import JacobianOptions, JacobianSolver
+from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["JacobianTranspose"]
+
+
+@dataclass(frozen=True)
+class TransposeOptions(JacobianOptions):
+    """Options of ``jacobian_transpose`` (more, smaller steps than the other two).
+
+    Attributes:
+        orientation_weight: weight of the orientation rows [m/rad].
+    """
+
+    max_iterations: int = 1500
+    restarts: int = 10
+    stall_window: int = 200
+    orientation_weight: float = 0.3
 
 
 class JacobianTranspose(JacobianSolver):
@@ -26,16 +42,12 @@ class JacobianTranspose(JacobianSolver):
 
     name: ClassVar[str] = "jacobian_transpose"
     summary: ClassVar[str] = "Jacobian transpose, optimal step along the gradient"
-    defaults: ClassVar[dict[str, Any]] = {
-        "max_iterations": 1500,
-        "restarts": 10,
-        "stall_window": 200,
-        "orientation_weight": 0.3,
-    }
+    Options: ClassVar[type[SolverOptions]] = TransposeOptions
+    options: TransposeOptions
 
     def _prepare(self, chain: Chain, rows: int) -> None:
         self._w = np.ones(rows)
-        self._w[3:] = self.orientation_weight
+        self._w[3:] = self.options.orientation_weight
         self._Jw = np.empty((rows, chain.n))
         self._ew = np.empty(rows)
 

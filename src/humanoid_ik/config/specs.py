@@ -1,0 +1,213 @@
+"""The values a scene file describes: the :class:`Scene` and its solver, effector and
+render specifications. :mod:`humanoid_ik.config.scene` reads them from a file and checks
+them against the model."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from humanoid_ik.config.toml import display_path
+from humanoid_ik.core.models import bundled_model_path
+from humanoid_ik.errors import SceneError, show_value
+from humanoid_ik.motion import TargetTrack
+from humanoid_ik.solvers import SOLVERS, make_solver
+
+__all__ = [
+    "TASKS",
+    "EffectorSpec",
+    "RenderSpec",
+    "Scene",
+    "SolverSpec",
+    "moves_several",
+]
+
+TASKS = ("reach", "look_at")
+"""Effector tasks: ``reach`` puts the site on the target (and in its orientation for a
+pose target); ``look_at`` aims the site's x axis at the target."""
+
+
+@dataclass(frozen=True)
+class SolverSpec:
+    """A solver by name with its options (checked against the solver's own defaults)."""
+
+    name: str
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
+
+    def make(self):
+        """A fresh solver object (:func:`humanoid_ik.solvers.make_solver`)."""
+        return make_solver(self.name, **dict(self.options))
+
+    def label(self) -> str:
+        """``name`` or ``name(key=value, ...)``."""
+        if not self.options:
+            return self.name
+        opts = ", ".join(f"{k}={show_value(v)}" for k, v in self.options.items())
+        return f"{self.name}({opts})"
+
+
+@dataclass(frozen=True)
+class EffectorSpec:
+    """An end effector (a site and the joints that move it) and the target it tracks.
+
+    Attributes:
+        site: the end-effector site, e.g. ``right_palm_site``.
+        target: the name of the target it tracks.
+        task: ``reach`` or ``look_at`` (aim the site's x axis at the target).
+        joints: the chain's joints, or ``None`` for every hinge from the site to the root.
+        solver: this effector's own solver, or ``None`` for the scene's solver (a
+            ``look_at`` effector then uses ``look_at``).
+    """
+
+    site: str
+    target: str
+    task: str = "reach"
+    joints: tuple[str, ...] | None = None
+    solver: SolverSpec | None = None
+
+    def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise SceneError(
+                "<effector>",
+                "task",
+                f"expected one of {', '.join(map(repr, TASKS))}, got {show_value(self.task)}",
+            )
+        if self.joints is not None:
+            object.__setattr__(self, "joints", tuple(self.joints))
+
+
+@dataclass(frozen=True)
+class RenderSpec:
+    """How a run is filmed.
+
+    Attributes:
+        width, height: frame size [px], even, at least 16.
+        camera: a named camera of the model.
+        trail: how much of each end effector's recent path is drawn [s] (0: none).
+        gif: also write an animated GIF.
+        snapshots: times [s] of the frames saved as PNG (empty: four spread evenly).
+        contact_sheet: thumbnails in the contact sheet (0: no sheet).
+    """
+
+    width: int = 640
+    height: int = 480
+    camera: str = "front"
+    trail: float = 1.5
+    gif: bool = False
+    snapshots: tuple[float, ...] = ()
+    contact_sheet: int = 12
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene. Build one with :func:`load_scene`, or directly and then
+    :func:`check_scene`.
+
+    Attributes:
+        name: the scene's name (also its output folder).
+        duration: [s].
+        fps: frames per second [1/s].
+        solver: the default solver.
+        targets: the moving targets.
+        effectors: which site tracks which target.
+        render: how it is filmed.
+        model: the MJCF path (the bundled humanoid by default).
+        description: one line for ``humanoid-ik scenes``.
+        path: the file it came from (for messages), or ``None``.
+    """
+
+    name: str
+    duration: float
+    fps: float
+    solver: SolverSpec
+    targets: tuple[TargetTrack, ...]
+    effectors: tuple[EffectorSpec, ...]
+    render: RenderSpec = field(default_factory=RenderSpec)
+    model: Path = field(default_factory=bundled_model_path)
+    description: str = ""
+    path: Path | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "targets", tuple(self.targets))
+        object.__setattr__(self, "effectors", tuple(self.effectors))
+        object.__setattr__(self, "model", Path(self.model))
+
+    @property
+    def n_frames(self) -> int:
+        """Frames in a full run: ``max(1, round(duration * fps))``."""
+        return max(1, round(self.duration * self.fps))
+
+    @property
+    def source(self) -> str:
+        """The scene's file for messages, or ``<scene 'name'>``."""
+        return display_path(self.path) if self.path else f"<scene '{self.name}'>"
+
+    def target(self, name: str) -> TargetTrack:
+        """The target called ``name``.
+
+        Raises:
+            SceneError: no such target (the names are listed).
+        """
+        for t in self.targets:
+            if t.name == name:
+                return t
+        names = ", ".join(repr(t.name) for t in self.targets)
+        raise SceneError(self.source, "targets", f"no target {name!r}; targets: {names}")
+
+    def solver_for(self, effector: EffectorSpec) -> SolverSpec:
+        """The solver an effector uses: its own, else the scene's; a ``look_at``
+        effector without its own solver uses ``look_at`` unless the scene's solver moves
+        several effectors at once."""
+        if effector.solver is not None:
+            return effector.solver
+        if effector.task == "look_at" and not moves_several(self.solver.name):
+            return SolverSpec("look_at")
+        return self.solver
+
+    def with_overrides(
+        self,
+        *,
+        solver: str | SolverSpec | None = None,
+        frames: int | None = None,
+        fps: float | None = None,
+        width: int | None = None,
+        height: int | None = None,
+        camera: str | None = None,
+        gif: bool | None = None,
+    ) -> Scene:
+        """A copy with command-line choices applied (``None`` keeps the scene's value).
+
+        ``solver`` replaces the scene's default solver (its options are dropped unless a
+        :class:`SolverSpec` is given); ``frames`` shortens or lengthens the run to that
+        many frames at the scene's (or the given) frame rate.
+        """
+        out = self
+        if solver is not None:
+            spec = solver if isinstance(solver, SolverSpec) else SolverSpec(solver)
+            out = replace(out, solver=spec)
+        if fps is not None:
+            out = replace(out, fps=float(fps))
+        if frames is not None:
+            out = replace(out, duration=frames / out.fps)
+        r = out.render
+        r = replace(
+            r,
+            width=r.width if width is None else width,
+            height=r.height if height is None else height,
+            camera=r.camera if camera is None else camera,
+            gif=r.gif if gif is None else gif,
+        )
+        return replace(out, render=r)
+
+
+def moves_several(solver_name: str) -> bool:
+    """True for a registered solver that moves several effectors at once (its class sets
+    ``solves_effectors``); such a solver also serves ``look_at`` effectors."""
+    cls = SOLVERS.get(solver_name)
+    return cls is not None and bool(getattr(cls, "solves_effectors", False))

@@ -1,0 +1,402 @@
+"""Sweep files: a grid of scenes or target sets x solvers (with option grids) x seeds,
+expanded into independent jobs (:class:`Job`; run by :mod:`humanoid_ik.experiments.sweep`).
+
+A sweep is a TOML file (read with ``tomllib``)::
+
+    name = "compare_solvers"           # optional, default: the file name
+    description = "..."
+    seeds = [0, 1, 2]                  # default [0]
+
+    [[solvers]]                        # or solvers = ["dls", "ccd"]
+    name = "dls"
+    options = { restarts = 0 }         # fixed options
+    grid = { damping = [0.02, 0.1] }   # every combination is its own configuration
+
+    [[scenes]]                         # a scene run for `frames` frames
+    scene = "compare_dls"              # a bundled scene or a path relative to this file
+    frames = 60                        # optional, default the scene's length
+
+    [[targets]]                        # a seeded target set (FK of random in-range joints)
+    name = "right_pose"
+    task = "pose"                      # position or pose (default pose)
+    n = 200
+    site = "right_palm_site"           # optional; also model (relative path) and joints
+
+The grid is ``(scenes + target sets) x solver configurations x seeds``. A seed draws a
+target set; for a scene it replaces the seed of every ``random_walk`` motion, and a scene
+without one runs once per configuration (its ``seed`` is empty). Every job has a stable
+id, a hash of what it computes (for a scene, of the scene file's bytes), so a rerun
+finds the results it already has.
+
+Every mistake raises :class:`~humanoid_ik.errors.SweepError` naming the file, the key and
+what was expected, e.g. ``sweeps/x.toml: seeds[1]: expected an integer >= 0, got -1``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from humanoid_ik.config.scene import Scene, find_scene, load_scene
+from humanoid_ik.config.toml import NAME, TomlReader, display_path, read_toml
+from humanoid_ik.core.chain import DEFAULT_SITE, Chain
+from humanoid_ik.core.models import bundled_model_path
+from humanoid_ik.core.types import TARGET_KINDS
+from humanoid_ik.errors import HumanoidIKError, SweepError, show_value
+from humanoid_ik.motion import RandomWalk
+from humanoid_ik.solvers import SOLVERS, make_solver
+
+__all__ = [
+    "KINDS",
+    "Job",
+    "Sweep",
+    "load_sweep",
+    "parse_sweep",
+    "reseeded",
+    "scene_digest",
+]
+
+KINDS = ("scene", "targets")
+"""What a job solves: a scene run, or a seeded target set."""
+
+
+# ----------------------------------------------------------------------------- values
+def _frozen(value: Any) -> Any:
+    """Lists -> tuples and dicts -> sorted item tuples, recursively (hashable)."""
+    if isinstance(value, Mapping):
+        return tuple(sorted((str(k), _frozen(v)) for k, v in value.items()))
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return value
+
+
+def _thawed(items: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
+    """Sorted ``(key, value)`` pairs back to a dict, tuple values back to lists."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in items}
+
+
+@dataclass(frozen=True)
+class Job:
+    """One cell of the grid: a scene or a target set, solved by one solver configuration
+    with one seed.
+
+    Attributes:
+        kind: ``scene`` or ``targets``.
+        name: the scene's or the target set's name.
+        solver: the solver's name.
+        options: the solver's options as sorted ``(key, value)`` pairs.
+        seed: the seed (``None`` for a scene without random motion).
+        params: what else defines the job, as sorted ``(key, value)`` pairs: for a scene
+            ``frames`` and ``scene_sha256`` (of the file), for a target set ``task``,
+            ``n``, ``site``, ``joints`` and ``model`` (as written in the sweep file).
+        location: the scene file or model to load (resolved); not part of the id.
+    """
+
+    kind: str
+    name: str
+    solver: str
+    options: tuple[tuple[str, Any], ...] = ()
+    seed: int | None = None
+    params: tuple[tuple[str, Any], ...] = ()
+    location: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise SweepError(None, "kind", f"expected one of {', '.join(KINDS)}, got {self.kind!r}")
+        object.__setattr__(self, "options", _frozen(dict(self.options)))
+        object.__setattr__(self, "params", _frozen(dict(self.params)))
+
+    @property
+    def id(self) -> str:
+        """12 hex digits of the SHA-256 of the job's parameters (not of ``location``)."""
+        doc = {
+            "kind": self.kind,
+            "name": self.name,
+            "solver": self.solver,
+            "options": self.options,
+            "seed": self.seed,
+            "params": self.params,
+        }
+        text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+    @property
+    def options_dict(self) -> dict[str, Any]:
+        """The solver's options as a dict (tuples back to lists)."""
+        return _thawed(self.options)
+
+    @property
+    def param(self) -> dict[str, Any]:
+        """``params`` as a dict."""
+        return _thawed(self.params)
+
+    @property
+    def config(self) -> str:
+        """The solver configuration's label: ``dls`` or ``dls(damping=0.02)``."""
+        if not self.options:
+            return self.solver
+        opts = ", ".join(f"{k}={show_value(v)}" for k, v in self.options)
+        return f"{self.solver}({opts})"
+
+    def describe(self) -> str:
+        """``kind name config seed`` on one line."""
+        seed = "" if self.seed is None else f" seed {self.seed}"
+        return f"{self.kind} {self.name} {self.config}{seed}"
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep and its jobs (grid order: sets, then configurations, then
+    seeds).
+
+    Attributes:
+        name: the sweep's name (also the default output folder's).
+        jobs: every job of the grid.
+        description: one line.
+        source: the file it came from (for messages).
+    """
+
+    name: str
+    jobs: tuple[Job, ...]
+    description: str = ""
+    source: str = ""
+
+
+# ----------------------------------------------------------------------------- parsing
+_TOP = {
+    "name": NAME,
+    "description": "a string",
+    "seeds": "a non-empty list of integers >= 0",
+    "solvers": "a non-empty list of solver names or tables [[solvers]] with name",
+    "scenes": "a list of tables [[scenes]] with scene",
+    "targets": "a list of tables [[targets]] with name and n",
+}
+_SOLVER = {
+    "name": "a solver name",
+    "options": "a table of solver options",
+    "grid": "a table of option name -> non-empty list of values",
+}
+_SCENE = {"scene": "a bundled scene's name or a scene file", "frames": "an integer >= 1"}
+_TARGETS = {
+    "name": NAME,
+    "task": "one of 'position', 'pose'",
+    "n": "an integer >= 1",
+    "site": "a site name",
+    "model": "an MJCF path (relative to the sweep file)",
+    "joints": "a list of joint names",
+}
+
+
+def _solver_configs(r: TomlReader, doc: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+    """Every solver configuration ``(name, options)``: each option grid expanded, each
+    combination tried on the solver's constructor."""
+    entries = r.array("solvers", doc, _TOP["solvers"])
+    if not entries:
+        raise r.expect("solvers", _TOP["solvers"], doc.get("solvers", []))
+    configs: list[tuple[str, dict[str, Any]]] = []
+    for i, entry in enumerate(entries):
+        key = f"solvers[{i}]"
+        if isinstance(entry, str):
+            entry = {"name": entry}
+        tbl = r.keys(key, entry, _SOLVER, required=("name",))
+        name = tbl["name"]
+        if not isinstance(name, str) or name not in SOLVERS:
+            raise r.expect(f"{key}.name", f"one of {', '.join(SOLVERS)}", name)
+        options = tbl.get("options", {})
+        if not isinstance(options, dict):
+            raise r.expect(f"{key}.options", _SOLVER["options"], options)
+        grid = tbl.get("grid", {})
+        if not isinstance(grid, dict):
+            raise r.expect(f"{key}.grid", _SOLVER["grid"], grid)
+        for opt, values in grid.items():
+            if not isinstance(values, list) or not values:
+                raise r.expect(f"{key}.grid.{opt}", "a non-empty list of values", values)
+            if opt in options:
+                raise r.fail(f"{key}.grid.{opt}", "also given in options; give it in one place")
+        axes = [[(opt, v) for v in values] for opt, values in grid.items()]
+        for combo in itertools.product(*axes):
+            opts = {**options, **dict(combo)}
+            try:
+                make_solver(name, **opts)
+            except HumanoidIKError as exc:
+                bad = next((k for k, _ in combo if f"'{k}'" in str(exc)), None)
+                where = f"{key}.grid.{bad}" if bad else f"{key}.options"
+                raise r.fail(where, str(exc)) from None
+            configs.append((name, opts))
+    return configs
+
+
+def _seeds(r: TomlReader, doc: Mapping[str, Any]) -> list[int]:
+    """The seeds: distinct integers >= 0 (default ``[0]``)."""
+    seeds = doc.get("seeds", [0])
+    if not isinstance(seeds, list) or not seeds:
+        raise r.expect("seeds", _TOP["seeds"], seeds)
+    out = [r.integer(f"seeds[{i}]", s, 0) for i, s in enumerate(seeds)]
+    for i, s in enumerate(out):
+        if s in out[:i]:
+            raise r.fail(f"seeds[{i}]", f"seed {s} given twice")
+    return out
+
+
+def _has_random_motion(scene: Scene) -> bool:
+    """True when a seed changes the scene: it has a ``random_walk`` motion."""
+    return any(isinstance(t.motion, RandomWalk) for t in scene.targets)
+
+
+def reseeded(scene: Scene, seed: int) -> Scene:
+    """``scene`` with every ``random_walk`` motion seeded by ``seed`` (what a sweep's seed
+    means for a scene)."""
+    tracks = tuple(
+        replace(t, motion=replace(t.motion, seed=seed)) if isinstance(t.motion, RandomWalk) else t
+        for t in scene.targets
+    )
+    return replace(scene, targets=tracks)
+
+
+def scene_digest(path: str | os.PathLike) -> str:
+    """16 hex digits of the SHA-256 of a scene file's bytes (part of a scene job's id)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+def _scene_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[str, Any]]:
+    """One set per ``[[scenes]]`` entry, its scene loaded and checked now."""
+    out = []
+    for i, entry in enumerate(r.array("scenes", doc, _TOP["scenes"])):
+        key = f"scenes[{i}]"
+        if isinstance(entry, str):
+            entry = {"scene": entry}
+        tbl = r.keys(key, entry, _SCENE, required=("scene",))
+        ref = tbl["scene"]
+        if not isinstance(ref, str) or not ref:
+            raise r.expect(f"{key}.scene", _SCENE["scene"], ref)
+        rel = base / ref
+        try:
+            path = find_scene(rel if rel.is_file() else ref)
+            scene = load_scene(path)
+        except HumanoidIKError as exc:
+            raise r.fail(f"{key}.scene", str(exc)) from None
+        frames = tbl.get("frames")
+        if frames is not None:
+            frames = r.integer(f"{key}.frames", frames, 1)
+        sha = scene_digest(path)
+        out.append(
+            {
+                "kind": "scene",
+                "name": scene.name,
+                "params": {"frames": frames or scene.n_frames, "scene_sha256": sha},
+                "location": str(path.resolve()),
+                "seeded": _has_random_motion(scene),
+            }
+        )
+    return out
+
+
+def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[str, Any]]:
+    """One set per ``[[targets]]`` entry, its chain built once to check it."""
+    out = []
+    for i, entry in enumerate(r.array("targets", doc, _TOP["targets"])):
+        key = f"targets[{i}]"
+        tbl = r.keys(key, entry, _TARGETS, required=("name", "n"))
+        name = r.name(f"{key}.name", tbl["name"])
+        n = r.integer(f"{key}.n", tbl["n"], 1)
+        task = tbl.get("task", "pose")
+        if task not in TARGET_KINDS:
+            raise r.expect(f"{key}.task", _TARGETS["task"], task)
+        site = tbl.get("site", DEFAULT_SITE)
+        if not isinstance(site, str) or not site:
+            raise r.expect(f"{key}.site", _TARGETS["site"], site)
+        model = tbl.get("model")
+        if model is not None and (not isinstance(model, str) or not model):
+            raise r.expect(f"{key}.model", _TARGETS["model"], model)
+        joints = tbl.get("joints")
+        if joints is not None and (
+            not isinstance(joints, list)
+            or not joints
+            or not all(isinstance(j, str) and j for j in joints)
+        ):
+            raise r.expect(f"{key}.joints", _TARGETS["joints"], joints)
+        location = bundled_model_path() if model is None else (base / model).resolve()
+        try:
+            Chain(location, site, joints)
+        except HumanoidIKError as exc:
+            kind = getattr(exc, "kind", "")
+            sub = {"site": "site", "joint": "joints"}.get(kind, "model" if model else "")
+            raise r.fail(f"{key}.{sub}" if sub else key, str(exc)) from None
+        out.append(
+            {
+                "kind": "targets",
+                "name": name,
+                "params": {"task": task, "n": n, "site": site, "joints": joints, "model": model},
+                "location": str(location),
+                "seeded": True,
+            }
+        )
+    return out
+
+
+def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -> Sweep:
+    """A :class:`Sweep` from a parsed TOML document.
+
+    Args:
+        doc: the document.
+        source: how messages name the file.
+        base: folder that relative scene and model paths start from (default: cwd).
+
+    Raises:
+        SweepError: any bad value, naming the key and what was expected.
+    """
+    r = TomlReader(source, SweepError)
+    base = Path(".") if base is None else base
+    r.keys("", doc, _TOP, required=("solvers",))
+    name = r.name("name", doc.get("name", Path(source).stem or "sweep"))
+    description = doc.get("description", "")
+    if not isinstance(description, str):
+        raise r.expect("description", _TOP["description"], description)
+    seeds = _seeds(r, doc)
+    configs = _solver_configs(r, doc)
+    sets = _scene_sets(r, doc, base) + _target_sets(r, doc, base)
+    if not sets:
+        raise r.fail("scenes", "no scenes and no targets; give [[scenes]] or [[targets]]")
+    jobs: list[Job] = []
+    for s in sets:
+        for solver, opts in configs:
+            for seed in seeds if s["seeded"] else [None]:
+                params = dict(s["params"])
+                if s["kind"] == "scene" and seed is not None:
+                    params["random_walk_seed"] = seed
+                job = Job(
+                    s["kind"],
+                    s["name"],
+                    solver,
+                    _frozen(opts),
+                    seed,
+                    _frozen(params),
+                    location=s["location"],
+                )
+                jobs.append(job)
+    seen: dict[str, int] = {}
+    for k, job in enumerate(jobs):
+        if job.id in seen:
+            raise r.fail(
+                "", f"job {job.describe()} appears twice (a scene, target set or solver repeated)"
+            )
+        seen[job.id] = k
+    return Sweep(name, tuple(jobs), description, source)
+
+
+def load_sweep(path: str | os.PathLike) -> Sweep:
+    """Read and validate a sweep file and expand its grid into jobs.
+
+    Raises:
+        SweepError: the file is missing or not TOML, or any value is wrong; the message
+            names the file, the key and what was expected.
+    """
+    p = Path(path)
+    source = display_path(p)
+    return parse_sweep(read_toml(p, source, SweepError), source, p.parent)

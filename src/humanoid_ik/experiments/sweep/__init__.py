@@ -1,0 +1,33 @@
+"""Sweeps: a sweep file's grid of jobs (scenes or target sets x solver configurations x
+seeds) run as independent jobs on a local process pool or on a Ray cluster, resumably,
+then summarised.
+
+Modules: ``jobs`` (running one job into a record), ``executors`` (local pool, Ray),
+``summary`` (summary rows, CSV/JSON, plot) and ``resume`` (:func:`run_sweep`: the job
+records on disk and what is left to run). The sweep file itself (:class:`Job`,
+:class:`Sweep`, :func:`load_sweep`, :func:`parse_sweep`) is read by
+:mod:`humanoid_ik.config.sweep_file` and re-exported here.
+"""
+
+from humanoid_ik.config.sweep_file import Job, Sweep, load_sweep, parse_sweep
+from humanoid_ik.experiments.sweep.executors import import_ray
+from humanoid_ik.experiments.sweep.jobs import COLUMNS, TIMING_COLUMNS, run_job
+from humanoid_ik.experiments.sweep.resume import SweepResult, read_records, run_sweep
+from humanoid_ik.experiments.sweep.summary import plot_summary, summary_rows, write_summary
+
+__all__ = [
+    "COLUMNS",
+    "TIMING_COLUMNS",
+    "Job",
+    "Sweep",
+    "SweepResult",
+    "import_ray",
+    "load_sweep",
+    "parse_sweep",
+    "plot_summary",
+    "read_records",
+    "run_job",
+    "run_sweep",
+    "summary_rows",
+    "write_summary",
+]

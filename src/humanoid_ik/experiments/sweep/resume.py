@@ -1,0 +1,160 @@
+"""Running a whole sweep, resumably: each finished job's record is a file
+``out/jobs/<id>.json``, so a rerun runs only the jobs without a finished record (new
+ones, failed ones, ones whose file was deleted), then writes the summary of all.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from humanoid_ik.config.sweep_file import Job, Sweep
+from humanoid_ik.errors import SweepError
+from humanoid_ik.experiments.sweep.executors import import_ray, run_local, run_ray
+from humanoid_ik.experiments.sweep.summary import plot_summary, status_counts, write_summary
+from humanoid_ik.outputs.atomic import write_json
+
+__all__ = ["SweepResult", "read_records", "run_sweep"]
+
+_RESULTS = "jobs"
+"""The folder under ``out`` of the job records."""
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """What a sweep run did.
+
+    Attributes:
+        records: every job's record, in grid order.
+        executed: ids of the jobs run this time.
+        cached: ids of the jobs whose result was already there.
+        files: the summary CSV, the summary JSON, the plot (if any) and ``run.json``.
+        wall_s: the run's wall time [s].
+    """
+
+    records: list[dict[str, Any]]
+    executed: list[str]
+    cached: list[str]
+    files: list[Path]
+    wall_s: float
+
+    def counts(self) -> dict[str, int]:
+        """Jobs by status (``ok``, ``failed``, ``skipped``, each present even at 0)."""
+        return {"ok": 0, "failed": 0, "skipped": 0} | status_counts(self.records)
+
+
+def _result_path(out: Path, job: Job) -> Path:
+    """Where ``job``'s record is kept under ``out``."""
+    return out / _RESULTS / f"{job.id}.json"
+
+
+def _read_record(path: Path) -> dict[str, Any] | None:
+    """The record at ``path``, or ``None`` when it is missing or unreadable."""
+    try:
+        rec = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) and "status" in rec else None
+
+
+def read_records(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[str, dict[str, Any]]:
+    """The finished records under ``out`` of the given jobs, by id (``ok`` and ``skipped``;
+    a failed job is run again)."""
+    found = {}
+    for job in jobs:
+        rec = _read_record(_result_path(Path(out), job))
+        if rec is not None and rec["status"] in ("ok", "skipped"):
+            found[job.id] = rec
+    return found
+
+
+def _make_out(out: Path) -> None:
+    """Create ``out/jobs``.
+
+    Raises:
+        SweepError: it cannot be created.
+    """
+    try:
+        (out / _RESULTS).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SweepError(None, "", f"cannot write '{out}': {exc.strerror or exc}") from None
+
+
+def run_sweep(
+    sweep: Sweep,
+    out: str | os.PathLike,
+    *,
+    workers: int | None = None,
+    ray_address: str | None = None,
+    progress: Callable[[int, int, dict[str, Any]], None] | None = None,
+    plot: bool = True,
+) -> SweepResult:
+    """Run every job of a sweep that has no finished result under ``out`` yet, then write
+    the summary.
+
+    Each finished job's record goes to ``out/jobs/<id>.json`` (atomically, written by
+    this process as results come back, so a Ray cluster needs no shared file system).
+    A failed job is recorded with its error and does not stop the others; it runs again
+    on the next call.
+
+    Args:
+        sweep: the sweep (:func:`~humanoid_ik.config.sweep_file.load_sweep`).
+        out: output folder (created).
+        workers: local processes (default ``os.cpu_count()``), or Ray CPUs for a local
+            Ray instance.
+        ray_address: run on Ray: ``"local"`` starts a local instance, anything else is
+            passed to ``ray.init(address=...)`` (e.g. ``"auto"``, ``"ray://host:10001"``).
+            A Ray already initialised in this process is used as it is.
+        progress: called ``(done, total, record)`` after each job run now.
+        plot: also write ``summary.png``.
+
+    Returns:
+        The :class:`SweepResult`.
+
+    Raises:
+        SweepError: ``workers < 1``, Ray missing, or ``out`` not writable.
+    """
+    if workers is not None and workers < 1:
+        raise SweepError(None, "", f"workers must be >= 1, got {workers}")
+    out = Path(out)
+    _make_out(out)
+    if ray_address is not None:
+        import_ray()
+    t0 = time.perf_counter()
+    records = read_records(out, sweep.jobs)
+    cached = [j.id for j in sweep.jobs if j.id in records]
+    todo = [j for j in sweep.jobs if j.id not in records]
+    executed: list[str] = []
+
+    def on_done(job: Job, rec: dict[str, Any]) -> None:
+        write_json(_result_path(out, job), rec)
+        records[job.id] = rec
+        executed.append(job.id)
+        if progress is not None:
+            progress(len(executed), len(todo), rec)
+
+    if todo:
+        if ray_address is None:
+            run_local(todo, min(workers or os.cpu_count() or 1, len(todo)), on_done)
+        else:
+            run_ray(todo, workers, ray_address, on_done)
+    wall = time.perf_counter() - t0
+    ordered = [records[j.id] for j in sweep.jobs]
+    files = write_summary(sweep, ordered, out)
+    if plot:
+        files.append(plot_summary(ordered, out / "summary.png", sweep.name))
+    run_doc = {
+        "sweep": sweep.name,
+        "executor": "local" if ray_address is None else f"ray {ray_address}",
+        "workers": workers or os.cpu_count(),
+        "executed": len(executed),
+        "cached": len(cached),
+        "wall_s": wall,
+    }
+    files.append(write_json(out / "run.json", run_doc))
+    return SweepResult(ordered, executed, cached, files, wall)

@@ -1,0 +1,320 @@
+"""Drawing a frame: MuJoCo's ``Renderer`` on the scene's data, with each effector's target
+marker, trail and cues added to its scene, and where a world point lands in the frame.
+
+:class:`FrameRenderer` draws; :class:`Film` is the runner's frame sink that draws each
+frame and hands the picture to the image sinks (video, stills, GIF).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from typing import Protocol
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from humanoid_ik.core.models import model_cameras
+from humanoid_ik.errors import RenderError
+from humanoid_ik.motion import TargetTrack
+from humanoid_ik.outputs.render.backend import open_renderer
+from humanoid_ik.run.metrics import FrameRecord
+
+__all__ = [
+    "COLORS",
+    "HALO_RADIUS",
+    "MARKER_RADIUS",
+    "TRAIL_COLORS",
+    "TRAIL_WIDTH",
+    "Film",
+    "FrameRenderer",
+    "ImageSink",
+    "camera_id",
+    "project",
+]
+
+COLORS: dict[str, tuple[float, float, float, float]] = {
+    "on_target": (0.15, 0.85, 0.25, 1.0),
+    "tracking": (1.0, 0.55, 0.0, 1.0),
+    "unreachable": (0.95, 0.1, 0.1, 1.0),
+    "gap": (0.95, 0.1, 0.1, 0.8),
+    "gaze": (1.0, 0.95, 0.5, 0.6),
+}
+"""Marker colours (RGBA in [0, 1]): on target, tracking (reachable, not there yet),
+unreachable; the line from the effector to an unreachable target; the gaze ray."""
+TRAIL_COLORS = (
+    (0.1, 0.6, 1.0),
+    (0.85, 0.25, 0.9),
+    (1.0, 0.9, 0.3),
+    (0.3, 0.95, 0.9),
+)
+"""Trail colour of effector 0, 1, 2, 3 (then repeating)."""
+MARKER_RADIUS = 0.02
+"""Target marker radius [m] (an opaque core)..."""
+HALO_RADIUS = 0.04
+"""... inside a translucent halo [m], which shows around a hand that covers the core."""
+TRAIL_WIDTH = 3.0
+"""Trail width [px] at 480 rows (scaled with the frame height)."""
+
+
+# ----------------------------------------------------------------------------- camera
+def camera_id(model: mujoco.MjModel, camera: str) -> int:
+    """The id of a named camera.
+
+    Raises:
+        RenderError: no such camera (the valid names are listed).
+    """
+    cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+    if cid < 0:
+        cams = ", ".join(model_cameras(model)) or "(none)"
+        raise RenderError(f"camera '{camera}' not in model; cameras: {cams}")
+    return cid
+
+
+def project(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    camera: str,
+    point: ArrayLike,
+    width: int,
+    height: int,
+) -> tuple[float, float, float]:
+    """Where a world point appears in a frame from a named camera.
+
+    With the camera at ``c`` and axes ``R = cam_xmat`` (x right, y up, looking along -z),
+    ``p_c = R^T (p - c)``, focal length ``f = (height / 2) / tan(fovy / 2)`` [px] and
+
+        ``u = width / 2 + f x_c / (-z_c)``,  ``v = height / 2 - f y_c / (-z_c)``
+
+    with ``u`` the column and ``v`` the row from the top (pixel ``(row, col)`` covers
+    ``[v, v + 1) x [u, u + 1)``).
+
+    Returns:
+        ``(u, v, depth)``: column and row [px], and distance in front of the camera [m].
+    """
+    cid = camera_id(model, camera)
+    c = data.cam_xpos[cid]
+    R = data.cam_xmat[cid].reshape(3, 3)
+    pc = R.T @ (np.asarray(point, dtype=np.float64) - c)
+    depth = -float(pc[2])
+    f = 0.5 * height / math.tan(math.radians(float(model.cam_fovy[cid])) / 2.0)
+    u = 0.5 * width + f * float(pc[0]) / depth
+    v = 0.5 * height - f * float(pc[1]) / depth
+    return u, v, depth
+
+
+# ----------------------------------------------------------------------------- drawing
+class FrameRenderer:
+    """Renders frames of a scene run with targets, trails and cues drawn in.
+
+    Per effector: the target as a sphere (green on target, orange while tracking, red
+    while out of reach), a pose target's axes, the recent path of the end effector (or
+    of the gaze point) as a fading trail, a red line from the effector to a target out
+    of reach, and the gaze ray of a ``look_at`` effector.
+
+    Args:
+        model: the scene's model.
+        width, height: frame size [px].
+        camera: a named camera.
+        trail: how many past positions each trail keeps.
+
+    Raises:
+        RenderError: unknown camera, or no working OpenGL backend.
+    """
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int, camera: str, trail: int):
+        self.model = model
+        self.camera = camera
+        self.camera_id = camera_id(model, camera)
+        self.width, self.height = width, height
+        self.renderer = open_renderer(model, width, height)
+        self.trail = max(0, int(trail))
+        self._trails: list[deque[NDArray[np.float64]]] = []
+        self._mat = np.eye(3).reshape(9)
+        self._sites: dict[str, int] = {}
+
+    def close(self) -> None:
+        """Free the OpenGL context."""
+        if self.renderer is not None:
+            self.renderer.close()
+            self.renderer = None
+
+    def __enter__(self) -> FrameRenderer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def reset_trails(self) -> None:
+        """Forget the trails."""
+        self._trails = []
+
+    def _geom(self, scene: mujoco.MjvScene) -> mujoco.MjvGeom | None:
+        if scene.ngeom >= scene.maxgeom:
+            return None
+        g = scene.geoms[scene.ngeom]
+        scene.ngeom += 1
+        return g
+
+    def _sphere(self, scene, pos, radius, rgba) -> None:
+        g = self._geom(scene)
+        if g is None:
+            return
+        mujoco.mjv_initGeom(
+            g,
+            mujoco.mjtGeom.mjGEOM_SPHERE,
+            np.array([radius, 0.0, 0.0]),
+            np.asarray(pos, dtype=np.float64),
+            self._mat,
+            np.asarray(rgba, dtype=np.float32),
+        )
+        g.emission = 0.6
+        g.specular = 0.0
+        g.castshadow = 0
+
+    def _segment(self, scene, a, b, width, rgba) -> None:
+        """A line from ``a`` to ``b``, ``width`` pixels wide at 480 rows (scaled with the
+        frame height). Lines cost next to nothing to render, unlike capsules."""
+        if float(np.linalg.norm(np.asarray(b) - np.asarray(a))) < 1e-6:
+            return
+        g = self._geom(scene)
+        if g is None:
+            return
+        mujoco.mjv_initGeom(
+            g,
+            mujoco.mjtGeom.mjGEOM_LINE,
+            np.zeros(3),
+            np.zeros(3),
+            self._mat,
+            np.asarray(rgba, dtype=np.float32),
+        )
+        mujoco.mjv_connector(
+            g,
+            mujoco.mjtGeom.mjGEOM_LINE,
+            max(1.0, width * self.height / 480.0),
+            np.asarray(a, dtype=np.float64),
+            np.asarray(b, dtype=np.float64),
+        )
+        g.emission = 0.5
+        g.specular = 0.0
+        g.castshadow = 0
+
+    def decorate(
+        self,
+        scene: mujoco.MjvScene,
+        data: mujoco.MjData,
+        record: FrameRecord,
+        quats: Sequence[NDArray[np.float64] | None] = (),
+    ) -> None:
+        """Add the markers, trails and cues of ``record`` to ``scene`` (``quats``: each
+        effector's target orientation, wxyz, or ``None``)."""
+        while len(self._trails) < len(record.samples):
+            self._trails.append(deque(maxlen=max(1, self.trail)))
+        # a target a hand reaches for is drawn (and trailed) once, for the hand
+        reached = {s.target_name for s in record.samples if s.task == "reach"}
+        drawn: set[str] = set()
+        for k, s in enumerate(record.samples):
+            trail = self._trails[k]
+            shared = s.task == "look_at" and s.target_name in reached
+            if self.trail > 0 and not shared:
+                trail.append(s.achieved.copy())
+                rgb = TRAIL_COLORS[k % len(TRAIL_COLORS)]
+                pts = list(trail)
+                n = len(pts)
+                for j in range(1, n):
+                    alpha = 0.15 + 0.85 * j / max(1, n - 1)
+                    self._segment(scene, pts[j - 1], pts[j], TRAIL_WIDTH, (*rgb, alpha))
+            if s.on_target:
+                color = COLORS["on_target"]
+            elif s.reachable:
+                color = COLORS["tracking"]
+            else:
+                color = COLORS["unreachable"]
+            if s.target_name not in drawn:
+                drawn.add(s.target_name)
+                self._sphere(scene, s.target, MARKER_RADIUS, color)
+                self._sphere(scene, s.target, HALO_RADIUS, (*color[:3], 0.3))
+            site = data.site_xpos[self._site_id(s.effector)]
+            if s.task == "look_at":
+                self._segment(scene, site, s.achieved, 2.0, COLORS["gaze"])
+            elif not s.reachable:
+                self._segment(scene, site, s.target, 2.5, COLORS["gap"])
+        # pose targets: their axes (x red, y green, z blue), 9 cm long
+        for k, s in enumerate(record.samples):
+            quat = quats[k] if k < len(quats) else None
+            if quat is None:
+                continue
+            mat = np.empty(9)
+            mujoco.mju_quat2Mat(mat, quat)
+            R = mat.reshape(3, 3)
+            for axis, rgb in enumerate(((0.9, 0.3, 0.3), (0.3, 0.9, 0.3), (0.3, 0.4, 1.0))):
+                end = s.target + 0.09 * R[:, axis]
+                self._segment(scene, s.target, end, 3.0, (*rgb, 1.0))
+
+    def _site_id(self, name: str) -> int:
+        sid = self._sites.get(name)
+        if sid is None:
+            sid = self._sites[name] = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, name)
+        return sid
+
+    def render(
+        self,
+        data: mujoco.MjData,
+        record: FrameRecord,
+        quats: Sequence[NDArray[np.float64] | None] = (),
+    ) -> NDArray[np.uint8]:
+        """One frame ``(height, width, 3)`` of ``data`` with ``record`` drawn in.
+
+        Args:
+            data: the scene's data after ``mj_forward``.
+            record: the frame's metrics (targets, achieved positions, flags).
+            quats: each effector's target orientation (wxyz) or ``None``.
+        """
+        r = self.renderer
+        r.update_scene(data, camera=self.camera_id)
+        self.decorate(r.scene, data, record, quats)
+        return r.render()
+
+
+# ----------------------------------------------------------------------------- film
+class ImageSink(Protocol):
+    """Takes each rendered frame (the video, the stills, the GIF)."""
+
+    def add_image(self, record: FrameRecord, image: NDArray[np.uint8]) -> None:
+        """Take frame ``record``'s picture ``(height, width, 3)`` (``image`` is not reused
+        by the caller; keep it as is)."""
+
+
+class Film:
+    """The runner's frame sink that draws each frame and hands the picture on.
+
+    Per frame: the targets' orientations at the frame's time, one
+    :meth:`FrameRenderer.render`, then every image sink in order.
+
+    Args:
+        renderer: draws the frames.
+        targets: each effector's target track (scene order), for pose targets' axes.
+        images: where each picture goes.
+    """
+
+    def __init__(
+        self,
+        renderer: FrameRenderer,
+        targets: Sequence[TargetTrack],
+        images: Sequence[ImageSink],
+    ):
+        self.renderer = renderer
+        self.targets = list(targets)
+        self.images = list(images)
+
+    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
+        """Render frame ``record`` of ``data`` and hand it to every image sink."""
+        quats = [
+            None if trk.orientation is None else trk.orientation.quat_at(record.time)
+            for trk in self.targets
+        ]
+        image = self.renderer.render(data, record, quats)
+        for sink in self.images:
+            sink.add_image(record, image)

@@ -1,0 +1,116 @@
+"""The ``closed_form`` solver: one target through the float path, the batch driver for
+what that path leaves (out of reach, out of range, gimbal lock)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.types import IKResult, Status, Target
+from humanoid_ik.errors import SolverError
+from humanoid_ik.solvers.analytic.closed_form.batch import solve_chunk
+from humanoid_ik.solvers.analytic.closed_form.geometry import arm_cache, arm_context
+from humanoid_ik.solvers.analytic.closed_form.single import Fallback, solve_one
+from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.options import SolverOptions
+
+__all__ = ["ClosedForm", "ClosedFormOptions"]
+
+
+@dataclass(frozen=True)
+class ClosedFormOptions(SolverOptions):
+    """Options of ``closed_form``.
+
+    Attributes:
+        swivel: the elbow's swivel angle about the shoulder-wrist line [rad], or
+            ``None`` for the in-range swivel nearest the start.
+    """
+
+    swivel: float | None = None
+
+    def __post_init__(self) -> None:
+        sw = self.swivel
+        if sw is None:
+            return
+        if isinstance(sw, bool) or not isinstance(sw, (int, float)) or not math.isfinite(sw):
+            raise SolverError(
+                "option 'swivel' of solver 'closed_form' must be a finite angle in "
+                f"[rad] or None, got {sw!r}"
+            )
+        object.__setattr__(self, "swivel", float(sw))
+
+
+class ClosedForm(Solver):
+    """Closed-form pose IK of a 7-hinge arm with the swivel as the free parameter.
+
+    Exact (to rounding) on any chain of three hinges meeting at a shoulder point, an
+    elbow hinge and three hinges meeting at a wrist point, with the axes read from
+    MuJoCo. Among all joint vectors that reach the target inside the joint ranges it
+    returns one at the swivel closest to ``swivel`` (default: the starting elbow's
+    swivel), with the shoulder and wrist branches closest to the start.
+
+    Position targets: the wrist keeps its starting angles and the shoulder and elbow
+    place the end effector (the hand rides along as part of the forearm).
+
+    A target beyond the shell the wrist point can reach, or one for which no swivel
+    keeps every joint in range, is ``unreachable``: the arm is stretched (or folded)
+    toward it, at the least violating branch moved inside the ranges.
+
+    Caches: the chain keeps the structure check and the geometry
+    (:class:`~.geometry.ArmCache`); :meth:`prepare` builds them.
+    """
+
+    name: ClassVar[str] = "closed_form"
+    summary: ClassVar[str] = "closed form: law of cosines + elbow swivel, exact joint ranges"
+    supports_orientation: ClassVar[bool] = True
+    Options: ClassVar[type[SolverOptions]] = ClosedFormOptions
+    options: ClosedFormOptions
+
+    def __init__(self, **options: Any):
+        super().__init__(**options)
+        sw = self.options.swivel
+        self._psi = None if sw is None else np.array([sw])
+
+    def prepare(self, chain: Chain) -> None:
+        """Check the chain's structure and read its geometry (kept with the chain)."""
+        if arm_cache(chain).reason is None:
+            arm_context(chain)
+
+    def applicable(self, chain: Chain, pose: bool = False) -> str | None:
+        return arm_cache(chain).reason
+
+    def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+        ctx = arm_context(chain)
+        rot = None if target.rotation is None else target.rotation.tolist()
+        try:
+            q, _ = solve_one(ctx, target.position.tolist(), rot, q0.tolist(), self.options.swivel)
+            return self._result(chain, target, np.array(q), 1)
+        except Fallback:
+            pass
+        R = None if target.rotation is None else target.rotation[None]
+        res = solve_chunk(ctx, target.position[None], R, q0[None], self._psi)
+        q1 = res.q[0]
+        if res.miss[0] > 0.0:
+            where = "inside the inner hole of" if res.inner[0] else "beyond"
+            point = "wrist point" if R is not None else "end effector (wrist kept)"
+            r_min, r_max = res.setup.shell[0][0], res.setup.shell[1][0]
+            msg = (
+                f"the target puts the {point} {res.miss[0]:.6g} m {where} the reachable "
+                f"shell [{r_min:.4f}, {r_max:.4f}] m around the shoulder"
+            )
+            return self._result(chain, target, q1, 1, status=Status.UNREACHABLE, message=msg)
+        if not res.feasible[0]:
+            if not res.elbow_ok[0]:
+                msg = (
+                    f"the elbow angle this target needs is outside its range "
+                    f"[{ctx.elbow_lo:.4g}, {ctx.elbow_hi:.4g}] rad"
+                )
+            else:
+                msg = "no swivel angle keeps every shoulder and wrist joint inside its range"
+            return self._result(chain, target, q1, 1, status=Status.UNREACHABLE, message=msg)
+        return self._result(chain, target, q1, 1)
