@@ -352,3 +352,15 @@ def test_mink_moves_both_hands_and_gaze_together():
     m = run.run()
     for k in range(3):
         assert m.series(k, "position_error").max() < 1e-3
+
+
+def test_solvers_are_prepared_before_the_first_frame():
+    """The runner has each solver build its per-chain data (the seed library) when it is
+    made, so no frame's solve time pays for it."""
+    run = SceneRunner(load_scene("circle").with_overrides(solver=SolverSpec("dls", {})))
+
+    def built_again(chain):
+        raise AssertionError("the seed library was not built before the run")
+
+    lib = run.chains[0].derived(("seed_library", 4000, 7), built_again)
+    assert lib.q.shape == (4000, run.chains[0].n)

@@ -128,6 +128,24 @@ class SceneRunner:
             for i in members:
                 self._gaze_axes[i] = solver.gaze_axis()
         self.reset()
+        self._prepare_solvers()
+
+    def _prepare_solvers(self) -> None:
+        """Each solver builds what it derives from its chains now, so no frame's solve
+        time includes it (mink's QP set-up, the Jacobian family's seed library)."""
+        for solver, members in self._groups:
+            if solver.solves_effectors:
+                solver.prepare_effectors(self._goals(members, [t.at(0.0) for t in self.targets]))
+            else:
+                solver.prepare(self.chains[members[0]])
+
+    def _goals(self, members: list[int], targets: list[Target]) -> list[EffectorGoal]:
+        """The goals of effectors ``members`` (``targets``: every effector's target),
+        warm-started from the previous frame."""
+        return [
+            EffectorGoal(self.chains[i], targets[i], self.q[i], self.scene.effectors[i].task)
+            for i in members
+        ]
 
     @property
     def n_frames(self) -> int:
@@ -162,12 +180,7 @@ class SceneRunner:
             for i in members:
                 self.chains[i].load(d)
             if solver.solves_effectors:  # several effectors at once
-                goals = [
-                    EffectorGoal(
-                        self.chains[i], targets[i], self.q[i], self.scene.effectors[i].task
-                    )
-                    for i in members
-                ]
+                goals = self._goals(members, targets)
                 t0 = time.perf_counter()
                 out = list(solver.solve_effectors(goals))
                 dt = (time.perf_counter() - t0) / len(members)

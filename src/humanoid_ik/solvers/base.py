@@ -56,6 +56,12 @@ class Solver(ABC):
         does not pay for it (a no-op for solvers that derive nothing)."""
         return None
 
+    def prepare_effectors(self, goals: Sequence[EffectorGoal]) -> None:
+        """:meth:`prepare` for the effectors a later :meth:`solve_effectors` call gets
+        (by default, each goal's chain)."""
+        for g in goals:
+            self.prepare(g.chain)
+
     def solve_effectors(self, goals: Sequence[EffectorGoal]) -> list[IKResult]:
         """Solve several effectors jointly (only where ``solves_effectors`` is set).
 
