@@ -6,7 +6,7 @@ from humanoid_ik.config.scene import Scene, load_scene
 from humanoid_ik.core.chain import DEFAULT_SITE, Chain
 from humanoid_ik.core.models import bundled_model_path, load_model
 from humanoid_ik.core.rotations import look_at
-from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import (
     ChainError,
     HumanoidIKError,
@@ -39,6 +39,7 @@ __all__ = [
     "SceneError",
     "SceneRunner",
     "SolverError",
+    "Status",
     "Target",
     "TargetError",
     "TrajectoryError",
