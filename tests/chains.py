@@ -1,8 +1,17 @@
-"""Inline MJCF chains for the tests (built with ``MjModel.from_xml_string``)."""
+"""Inline MJCF chains for the tests (built with ``Chain.from_xml_string``), and the
+fixture arms of ``tests/models/``."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from pathlib import Path
+
 import mujoco
+
+from humanoid_ik import Chain
+
+MODELS = Path(__file__).resolve().parent / "models"
+"""Fixture arms unlike the humanoid's (see ``tests/models/README.md``)."""
 
 # The worksheet's limb: a 3-hinge shoulder at p1 = origin (Y, Z, X: the YZX Euler order of
 # the polar method), d12 = (3, 0, 0), an elbow about z, d23 = (2, 0, 0). No joint limits.
@@ -80,6 +89,57 @@ SMALL_ARM_XML = """
 """
 
 
+# The humanoid report's arm (the third seed): an upper arm and a forearm in the xy plane,
+# both hinges about z, lengths L1 = 0.32 and L2 = 0.27, limited as an elbow bends.
+REPORT_XML = """
+<mujoco model="report_arm">
+  <compiler angle="radian" autolimits="true"/>
+  <worldbody>
+    <body name="upper_arm_link" pos="0.1 0.2 1.3">
+      <joint name="shoulder_joint" axis="0 0 1" range="-3.1 3.1"/>
+      <geom type="capsule" fromto="0 0 0 0.32 0 0" size="0.03"/>
+      <body name="forearm_link" pos="0.32 0 0">
+        <joint name="elbow_joint" axis="0 0 1" range="-3.0 3.0"/>
+        <geom type="capsule" fromto="0 0 0 0.27 0 0" size="0.025"/>
+        <site name="hand_site" pos="0.27 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+FIXTURES = {
+    "planar_arm": ("hand_site", ["shoulder_joint", "elbow_joint", "wrist_joint"]),
+    "two_hinge_arm": (
+        "hand_site",
+        ["shoulder_pitch_joint", "shoulder_roll_joint", "elbow_joint", "wrist_joint"],
+    ),
+    "three_hinge_arm": (
+        "hand_site",
+        [
+            "shoulder_yaw_joint",
+            "shoulder_pitch_joint",
+            "shoulder_roll_joint",
+            "elbow_joint",
+            "wrist_joint",
+        ],
+    ),
+}
+"""Fixture name -> (site, joints): shoulder, elbow, and a wrist that rides along."""
+
+
 def model(xml: str) -> mujoco.MjModel:
     """Compile an inline MJCF string."""
     return mujoco.MjModel.from_xml_string(xml)
+
+
+def chain(xml: str, site: str | None = None, joints: Sequence[str] | None = None) -> Chain:
+    """A chain on an inline MJCF string (:meth:`Chain.from_xml_string`)."""
+    return Chain.from_xml_string(xml, site, joints)
+
+
+def fixture(name: str, riding: bool = True) -> Chain:
+    """The chain of fixture arm ``name`` (with its wrist, or without: then the wrist is
+    a joint off the chain, held at home)."""
+    site, joints = FIXTURES[name]
+    return Chain(MODELS / f"{name}.xml", site, joints if riding else joints[:-1])

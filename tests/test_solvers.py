@@ -261,13 +261,22 @@ def test_position_only_solvers_refuse_pose_targets():
             make_solver(name).solve(chain, tgt)
 
 
-def test_two_link_needs_a_shoulder():
-    """A planar two-hinge chain has no spherical shoulder: two_link says why."""
-    from .chains import CCD_XML
+def test_two_link_takes_a_planar_arm_and_refuses_no_shoulder():
+    """A planar two-hinge chain is solved exactly; a single hinge is refused with why."""
+    from .chains import CCD_XML, chain
 
-    chain = Chain(model(CCD_XML), "p3")
-    reason = make_solver("two_link").applicable(chain)
-    assert reason is not None and "3 shoulder hinges" in reason
+    planar = chain(CCD_XML, "p3")
+    assert make_solver("two_link").applicable(planar) is None
+    res = make_solver("two_link").solve(planar, [1.0, 2.0, 0.0], q0=[0.0, 0.0])
+    assert res.converged and res.position_error < 1e-12
+    np.testing.assert_allclose(planar.fk(res.q)[0], [1.0, 2.0, 0.0], atol=1e-12)
+    one = chain(
+        """<mujoco><worldbody><body><joint name="j" axis="0 0 1"/><geom size=".1"/>
+        <site name="tip" pos="1 0 0"/></body></worldbody></mujoco>""",
+        "tip",
+    )
+    reason = make_solver("two_link").applicable(one)
+    assert reason is not None and "1, 2 or 3 shoulder hinges" in reason
 
 
 def test_targets_are_checked():

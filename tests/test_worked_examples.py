@@ -1,4 +1,6 @@
-"""Every worked example of the reference notes, reproduced to 1e-4 with FK from MuJoCo."""
+"""Every worked example of the reference notes, reproduced to 1e-4 with FK from MuJoCo
+(the worksheet and the report's arm followed number by number from the public API, to
+1e-6)."""
 
 from __future__ import annotations
 
@@ -11,9 +13,10 @@ from humanoid_ik import Chain, look_at, make_solver
 from humanoid_ik.core.rotations import rotation_between
 from humanoid_ik.solvers.analytic.two_link import law_of_cosines, polar_angles
 
-from .chains import CCD_XML, WORKSHEET_XML, model
+from .chains import CCD_XML, REPORT_XML, WORKSHEET_XML, chain, model
 
 TOL = 1e-4
+API_TOL = 1e-6
 PD = np.array([-3.0, math.sqrt(7.0), 0.0])
 
 
@@ -99,6 +102,96 @@ def test_reachability_shell(worksheet):
     shell = make_solver("two_link").shell(worksheet, np.zeros(4))
     assert (shell.l1, shell.l2, shell.h) == pytest.approx((3.0, 2.0, 0.0), abs=1e-12)
     assert (shell.r_min, shell.r_max) == pytest.approx((1.0, 5.0), abs=1e-12)
+
+
+def test_worksheet_followed_from_the_api(worksheet):
+    """Example 1 followed number by number from two_link's details and MuJoCo's FK (1e-6)."""
+    res = make_solver("two_link", method="polar", branch="negative").solve(
+        worksheet, PD, q0=np.zeros(4)
+    )
+    d = res.details
+    assert res.converged and res.position_error < 1e-12 and d["kind"] == "three_hinge"
+    # step 1: length
+    assert d["r"] == pytest.approx(4.0, abs=API_TOL)
+    assert d["shell"] == pytest.approx((1.0, 5.0), abs=1e-12)  # |l1 - l2| <= r <= l1 + l2
+    assert math.cos(d["phi"]) == pytest.approx(-0.25, abs=API_TOL)
+    assert d["phi"] == pytest.approx(1.8234766, abs=API_TOL)
+    assert math.degrees(d["phi"]) == pytest.approx(104.4775, abs=1e-4)
+    theta2z = d["theta2"]
+    assert theta2z == pytest.approx(d["phi"] - math.pi, abs=1e-15)
+    assert theta2z == pytest.approx(-1.3181161, abs=API_TOL) and d["elbow"] == theta2z
+    assert math.degrees(theta2z) == pytest.approx(-75.5225, abs=1e-4)
+    p3, _ = worksheet.fk([0.0, 0.0, 0.0, theta2z])
+    np.testing.assert_allclose(p3, [3.5, -1.9364917, 0.0], atol=API_TOL)
+    assert np.linalg.norm(p3) == pytest.approx(4.0, abs=API_TOL)
+    # step 2a: the limb onto x (the second hinge of the worksheet's shoulder is z)
+    polar = d["polar"]
+    assert math.sin(polar.theta1z) == pytest.approx(2.0 * math.sin(-theta2z) / 4.0, abs=1e-12)
+    assert math.sin(polar.theta1z) == pytest.approx(0.4841229, abs=API_TOL)
+    assert polar.theta1z == pytest.approx(0.5053605, abs=API_TOL)
+    np.testing.assert_allclose(polar.align_axis, [0.0, 0.0, 1.0], atol=1e-12)
+    p3, _ = worksheet.fk([0.0, polar.theta1z, 0.0, theta2z])
+    np.testing.assert_allclose(p3, [4.0, 0.0, 0.0], atol=API_TOL)
+    # step 2b: heading and elevation; R1 = Ry(beta) Rz(gamma) Rz(theta1z) on hinges y, z, x
+    assert abs(polar.beta) == pytest.approx(math.pi, abs=API_TOL)  # atan2 may give -pi
+    assert polar.gamma == pytest.approx(0.7227342, abs=API_TOL)
+    R1 = [polar.beta, polar.gamma + polar.theta1z, 0.0, theta2z]
+    p3, _ = worksheet.fk(R1)
+    np.testing.assert_allclose(p3, [-3.0, 2.6457513, 0.0], atol=API_TOL)
+    # the polar method's answer is that very rotation
+    np.testing.assert_allclose(np.abs(res.q), np.abs(R1), atol=API_TOL)
+    # step 2, angle/axis: r0 = p3 - p1 with the shoulder reset, e0 = pd - p3
+    r0, _ = worksheet.fk([0.0, 0.0, 0.0, theta2z])
+    e0 = PD - r0
+    np.testing.assert_allclose(e0, [-6.5, 4.5822430, 0.0], atol=API_TOL)
+    np.testing.assert_allclose(np.cross(r0, e0), [0.0, 0.0, 3.4506546], atol=API_TOL)
+    aa = d["angle_axis"]
+    assert aa.phi == pytest.approx(2.9242189, abs=API_TOL)
+    np.testing.assert_allclose(aa.axis, [0.0, 0.0, 1.0], atol=1e-12)
+    p3, _ = worksheet.fk([0.0, aa.phi, 0.0, theta2z])
+    np.testing.assert_allclose(p3, [-3.0, 2.6457513, 0.0], atol=API_TOL)
+    res = make_solver("two_link", method="angle_axis", branch="negative").solve(
+        worksheet, PD, q0=np.zeros(4)
+    )
+    np.testing.assert_allclose(res.q, [0.0, 2.9242189, 0.0, -1.3181161], atol=API_TOL)
+
+
+def _report_law_of_cosine(a: float, b: float, c: float) -> float:
+    """The report's ``lawOfCosine``: ``acos((a^2 + b^2 - c^2) / 2ab)``."""
+    return math.acos((a * a + b * b - c * c) / (2 * a * b))
+
+
+@pytest.mark.parametrize("dest", [(0.35, 0.55), (-0.2, 0.05), (0.52, 0.2)])
+def test_report_planar_arm(dest):
+    """Example 4: the report's theta_1 = atan2 + law of cosines, theta_2 - pi at the elbow."""
+    arm = chain(REPORT_XML, "hand_site")
+    l1, l2, source = 0.32, 0.27, (0.1, 0.2)
+    dist = math.hypot(dest[0] - source[0], dest[1] - source[1])
+    theta_t1 = math.atan2(dest[1] - source[1], dest[0] - source[0])
+    theta_t2 = _report_law_of_cosine(dist, l1, l2)
+    theta_1, theta_2 = theta_t1 + theta_t2, _report_law_of_cosine(l1, l2, dist)
+    target = [dest[0], dest[1], 1.3]
+    res = make_solver("two_link", branch="negative").solve(arm, target, q0=[0.0, 0.0])
+    d = res.details
+    assert d["kind"] == "planar" and res.converged and res.position_error < 1e-12
+    assert d["r"] == pytest.approx(dist, abs=1e-12)
+    assert d["theta_t1"] == pytest.approx(theta_t1, abs=API_TOL)
+    assert d["theta_t2"] == pytest.approx(theta_t2, abs=API_TOL)
+    assert d["phi"] == pytest.approx(theta_2, abs=API_TOL)
+    np.testing.assert_allclose(res.q, [theta_1, theta_2 - math.pi], atol=API_TOL)
+    p, _ = arm.fk(res.q)
+    np.testing.assert_allclose(p, target, atol=1e-12)
+    assert d["shell"] == pytest.approx((l1 - l2, l1 + l2), abs=1e-12)
+
+
+def test_report_reachable_shell():
+    """Beyond L1 + L2 or inside L1 - L2 the report's arm cannot reach: unreachable."""
+    arm = chain(REPORT_XML, "hand_site")
+    for r, where in ((0.6, "beyond"), (0.04, "inside the inner hole of")):
+        res = make_solver("two_link").solve(arm, [0.1 + r, 0.2, 1.3], q0=[0.0, 0.0])
+        assert res.status == "unreachable" and f"m {where} the reachable shell" in res.message
+    res = make_solver("two_link").solve(arm, [0.1 + 0.59, 0.2, 1.3], q0=[0.0, 0.0])
+    assert res.converged and res.position_error < 1e-12
 
 
 def test_ccd_single_sweep():

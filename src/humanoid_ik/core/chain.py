@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.core.models import home_qpos, load_model, reset_to_home
 from humanoid_ik.errors import (
     ChainError,
+    ModelError,
     NameNotFoundError,
     TargetError,
     UnsupportedJointError,
@@ -52,7 +53,8 @@ class Chain:
     """Hinge joints from a root to an end-effector site or body.
 
     Args:
-        model: an ``MjModel``, an MJCF path, or ``None`` for the bundled humanoid.
+        model: an ``MjModel``, an MJCF path, or ``None`` for the bundled humanoid (an
+            MJCF string: :meth:`from_xml_string`).
         site: end-effector site name (default ``right_palm_site`` when ``body`` is unset).
         joints: joint names; by default the hinge joints on the path from the end
             effector's body to the root, stopping at a free joint.
@@ -120,6 +122,35 @@ class Chain:
         self._dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
         self._J = self._jac[:, self._dof_slice] if contiguous else np.zeros((6, self.n))
         self._derived: dict[Hashable, Any] = {}
+
+    @classmethod
+    def from_xml_string(
+        cls,
+        xml: str,
+        site: str | None = None,
+        joints: Sequence[str] | None = None,
+        *,
+        body: str | None = None,
+    ) -> Chain:
+        """A chain on a model compiled from an MJCF string (``MjModel.from_xml_string``).
+
+        Args:
+            xml: the MJCF document.
+            site, joints, body: as for :class:`Chain`.
+
+        Raises:
+            ModelError: ``xml`` is not a string, or MuJoCo cannot compile it (MuJoCo's
+                message is kept).
+            NameNotFoundError, UnsupportedJointError, ChainError: as :class:`Chain`.
+        """
+        if not isinstance(xml, str):
+            raise ModelError(f"MJCF must be a string of XML, got {type(xml).__name__}")
+        try:
+            model = mujoco.MjModel.from_xml_string(xml)
+        except ValueError as exc:
+            msg = " ".join(str(exc).split())
+            raise ModelError(f"MJCF string does not compile: {msg}") from exc
+        return cls(model, site, joints, body=body)
 
     def derived(self, key: Hashable, build: Callable[[Chain], T]) -> T:
         """A value derived from the chain's fixed kinematics, built by ``build(self)`` on

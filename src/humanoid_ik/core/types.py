@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -85,6 +87,9 @@ class Target:
         return self.quat is not None
 
 
+_NO_DETAILS: Mapping[str, Any] = MappingProxyType({})
+
+
 @dataclass(frozen=True)
 class IKResult:
     """What a solver did.
@@ -101,6 +106,12 @@ class IKResult:
         status: ``converged``, ``max_iterations`` or ``unreachable``.
         solver: the solver's name.
         message: why it did not converge, or ``""``.
+        details: the solver's intermediate values by name, a read-only mapping (a
+            ``dict`` given is copied behind ``MappingProxyType``; empty for a solver that
+            reports none). ``two_link`` gives the elbow's interior angle
+            ``phi``, ``theta2 = +-(phi - pi)``, the branch, and per shoulder kind the
+            worksheet's angles (see ``docs/two_link.md``). Values are floats, strings,
+            tuples and named tuples; not part of equality.
     """
 
     q: NDArray[np.float64]
@@ -111,6 +122,7 @@ class IKResult:
     status: Status
     solver: str = ""
     message: str = ""
+    details: Mapping[str, Any] = field(default_factory=lambda: _NO_DETAILS, compare=False)
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
@@ -119,9 +131,12 @@ class IKResult:
         q = np.array(self.q, dtype=np.float64)
         q.setflags(write=False)
         object.__setattr__(self, "q", q)
+        if isinstance(self.details, dict):
+            object.__setattr__(self, "details", MappingProxyType(self.details.copy()))
 
     def to_dict(self, joint_names: list[str] | None = None) -> dict[str, Any]:
-        """A JSON-ready dict (joint values by name when ``joint_names`` is given)."""
+        """A JSON-ready dict (joint values by name when ``joint_names`` is given; the
+        ``details`` key only when the solver reported some)."""
         q = [float(v) for v in self.q]
         return {
             "solver": self.solver,
@@ -132,7 +147,22 @@ class IKResult:
             "orientation_error_rad": self.orientation_error,
             "q": dict(zip(joint_names, q, strict=True)) if joint_names else q,
             "message": self.message,
+            **({"details": _plain(self.details)} if self.details else {}),
         }
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as JSON-ready data: mappings and named tuples to dicts, other tuples and
+    arrays to lists, numpy numbers to Python ones."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, tuple) and hasattr(value, "_asdict"):  # a NamedTuple
+        return {k: _plain(v) for k, v in value._asdict().items()}
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
 
 
 class EffectorGoal(NamedTuple):

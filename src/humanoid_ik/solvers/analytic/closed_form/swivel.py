@@ -208,7 +208,19 @@ def shoulder_target(ctx: ArmContext, n: Vec, r: Vec, k: Vec) -> tuple[Real, ...]
 def shoulder_coefficients(
     ctx: ArmContext, target: tuple[Real, ...], a: Vec, b: Vec, cv: Vec
 ) -> Coefficients:
-    """The shoulder's 15 :data:`Coefficients`.
+    """The shoulder's 15 :data:`Coefficients` (:func:`triple_coefficients` of the
+    shoulder's hinges).
+
+    Args:
+        target: :func:`shoulder_target` of the target's frame.
+    """
+    return triple_coefficients(ctx.sh.z_rows, target, a, b, cv)
+
+
+def triple_coefficients(
+    z_rows: Sequence[float], target: tuple[Real, ...], a: Vec, b: Vec, cv: Vec
+) -> Coefficients:
+    """The 15 twist-linear :data:`Coefficients` of a spherical triple of hinges.
 
     With ``(al, be, ga) = (a, b, cv) . u3`` and ``(m1, m2, m3) = (n, r, k) . u1``:
     ``y = n al + r (be c - ga s) + k (ga c + be s)`` and
@@ -216,13 +228,13 @@ def shoulder_coefficients(
     read with ``e1, e2, u1`` and ``f1, f2``.
 
     Args:
-        target: :func:`shoulder_target` of the target's frame.
+        z_rows: the triple's reading rows, 9 numbers (``Triple.z_rows``).
+        target: ``n, r, k`` read with ``e1, e2, u1`` (9 numbers).
     """
     ne1, ne2, m1, re1, re2, m2, ke1, ke2, m3 = target
-    rows = ctx.sh.z_rows
-    al, af1, af2 = proj(rows, a)
-    be, bf1, bf2 = proj(rows, b)
-    ga, cf1, cf2 = proj(rows, cv)
+    al, af1, af2 = proj(z_rows, a)
+    be, bf1, bf2 = proj(z_rows, b)
+    ga, cf1, cf2 = proj(z_rows, cv)
     return (
         al * ne1, be * re1 + ga * ke1, be * ke1 - ga * re1,
         al * ne2, be * re2 + ga * ke2, be * ke2 - ga * re2,

@@ -1,0 +1,353 @@
+"""The limb as ``two_link`` reads it from MuJoCo: which shoulder it has, its points and
+axes at the zero pose, the hand's law-of-cosines constants, kept with the chain.
+
+Everything is read in the world frame with the chain's joints at zero. The shoulder is
+``k`` hinges (1: a planar arm, the shoulder axis parallel to the elbow's; 2 or 3: axes
+meeting at the shoulder point ``S``), joint ``k`` is the elbow, and the joints after it
+ride along at their start values. Their values move the hand point ``P`` the elbow
+carries, so the hand's constants (:class:`Limb`) are kept per set of riding values.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.rotations import axes_meeting_point
+from humanoid_ik.errors import SolverError
+from humanoid_ik.solvers.analytic.closed_form.geometry import Forearm, Triple, forearm
+from humanoid_ik.solvers.analytic.closed_form.numeric import (
+    FLOATS,
+    RANGE_TOL,
+    TWO_PI,
+    Vec,
+    cross,
+    dot,
+    sub,
+)
+
+__all__ = [
+    "KINDS",
+    "Shell",
+    "Limb",
+    "LimbContext",
+    "LimbCache",
+    "law_of_cosines",
+    "limb_cache",
+    "limb_context",
+    "place",
+    "inside",
+    "read_structure",
+]
+
+KINDS = {1: "planar", 2: "two_hinge", 3: "three_hinge"}
+"""The shoulder kinds by number of shoulder hinges."""
+_PARALLEL = 1e-9  # 1 - |cos| below which two axes count as parallel
+_ON_AXIS = 1e-9  # [m]: an axis line this close to a point passes through it
+
+
+def law_of_cosines(l1: float, l2: float, r: float) -> float:
+    """Interior angle ``phi`` [rad] between links ``l1`` and ``l2`` whose ends are ``r`` apart.
+
+    ``r^2 = l1^2 + l2^2 - 2 l1 l2 cos(phi)``; the cosine is clipped to [-1, 1], so a
+    target beyond reach gives the straight (``pi``) or folded (``0``) limb.
+    """
+    c = (l1 * l1 + l2 * l2 - r * r) / (2.0 * l1 * l2)
+    return math.acos(max(-1.0, min(1.0, c)))
+
+
+class Shell(NamedTuple):
+    """The elbow geometry of a chain (world frame, shoulder and elbow at zero)."""
+
+    l1: float
+    """Upper-arm length normal to the elbow axis [m]."""
+    l2: float
+    """Forearm-to-end-effector length normal to the elbow axis [m]."""
+    h: float
+    """Offset between the two along the elbow axis [m] (0 for a planar limb)."""
+    alpha: float
+    """Elbow angle [rad] at which the limb is folded (distance shortest); straight at
+    ``alpha + pi``."""
+    r_min: float
+    """Inner radius of the reachable shell [m]: ``sqrt((l1 - l2)^2 + h^2)``."""
+    r_max: float
+    """Outer radius [m]: ``sqrt((l1 + l2)^2 + h^2)``."""
+
+
+def _tup(v: NDArray[np.float64]) -> Vec:
+    return float(v[0]), float(v[1]), float(v[2])
+
+
+# ------------------------------------------------------------------------------ structure
+def _zero_axes(chain: Chain) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """World anchors ``(n, 3)`` and unit axes ``(n, 3)`` of the hinges, chain joints at
+    zero (the scratch data's joints are put back)."""
+    q_keep = chain.q
+    chain.set_q(np.zeros(chain.n))
+    anchors, axes = chain.joint_axes()
+    chain.set_q(q_keep)
+    return anchors, axes / np.linalg.norm(axes, axis=1, keepdims=True)
+
+
+def _off_line(point: NDArray, anchor: NDArray, axis: NDArray) -> float:
+    """Distance [m] from ``point`` to the line ``anchor + s axis`` (unit ``axis``)."""
+    return float(np.linalg.norm(np.cross(point - anchor, axis)))
+
+
+def read_structure(chain: Chain) -> tuple[int, str | None]:
+    """``(k, None)`` with ``k`` the number of shoulder hinges, or ``(0, reason)``.
+
+    Tried in this order, on the axes at zero: three hinges meeting at one point with
+    no two neighbours parallel (then joint 3 is the elbow); two non-parallel hinges
+    meeting at a point (joint 2 the elbow); one hinge parallel to joint 1's axis and
+    apart from it (a planar arm, joint 1 the elbow). The elbow axis must not pass
+    through the shoulder point (for a planar arm: must not coincide with its axis), or
+    the elbow cannot change the shoulder-to-hand distance.
+    """
+    n = chain.n
+    if n < 2:
+        return 0, (
+            f"two_link needs 1, 2 or 3 shoulder hinges and an elbow hinge; the chain has "
+            f"{n} joint(s)"
+        )
+    anchors, axes = _zero_axes(chain)
+    for k in (3, 2):
+        if n < k + 1:
+            continue
+        S = axes_meeting_point(anchors[:k], axes[:k])
+        if S is None:
+            continue
+        if any(abs(float(axes[i] @ axes[i + 1])) > 1.0 - _PARALLEL for i in range(k - 1)):
+            return 0, "two_link needs shoulder axes whose neighbours are not parallel"
+        if _off_line(S, anchors[k], axes[k]) < _ON_AXIS:
+            return 0, "two_link needs an elbow axis that does not pass through the shoulder"
+        return k, None
+    if abs(float(axes[0] @ axes[1])) > 1.0 - _PARALLEL:
+        if _off_line(anchors[0], anchors[1], axes[1]) < _ON_AXIS:
+            return 0, (
+                "two_link needs an elbow axis that does not pass through the shoulder "
+                "(here it lies on the shoulder's axis)"
+            )
+        return 1, None
+    return 0, (
+        "two_link needs shoulder hinge axes that meet at one point (2 or 3 hinges) or a "
+        "shoulder hinge parallel to the elbow's (a planar arm)"
+    )
+
+
+# ------------------------------------------------------------------------------ the hand
+class Limb(NamedTuple):
+    """The hand point ``P`` as the elbow moves it, for one set of riding joint values."""
+
+    fa: Forearm
+    """``P(qe) = Pc + cos qe Pa + sin qe Pb`` (shoulder at zero) and the law of cosines
+    ``|P(qe) - S|^2 = L2 - den cos(qe - alpha)``."""
+    S: Vec
+    """The shoulder point [m]; for a planar arm the point of the shoulder axis in the
+    hand's plane (normal to the axis)."""
+    shell: Shell
+    """Lengths and the reachable shell."""
+    frame: tuple[Vec, Vec]
+    """Planar arm: ``x`` (unit upper arm at zero, in the plane) and ``y = a x x``;
+    otherwise the world's x and y."""
+
+
+def _limb(ctx: LimbContext, P0: Vec) -> Limb:
+    """The :class:`Limb` of hand point ``P0`` (world, chain at zero)."""
+    S, E, ue = ctx.S, ctx.E, ctx.ue
+    if ctx.k == 1:  # the shoulder axis's point in the hand's plane: no offset along it
+        a = ctx.axes[0]
+        z = dot(sub(P0, S), a)
+        S = (S[0] + z * a[0], S[1] + z * a[1], S[2] + z * a[2])
+    fa = forearm(FLOATS, S, E, ue, P0)
+    au, wu = dot(sub(S, E), ue), dot(sub(P0, E), ue)
+    ap = sub(sub(S, E), (au * ue[0], au * ue[1], au * ue[2]))
+    l1, l2, h = math.sqrt(dot(ap, ap)), math.sqrt(dot(fa.Pa, fa.Pa)), abs(au - wu)
+    shell = Shell(l1, l2, h, float(fa.alpha), float(fa.r_min), float(fa.r_max))
+    frame: tuple[Vec, Vec] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    if ctx.k == 1:
+        a = ctx.axes[0]
+        x = sub(E, S)
+        d = dot(x, a)
+        x = (x[0] - d * a[0], x[1] - d * a[1], x[2] - d * a[2])
+        nx = math.sqrt(dot(x, x))
+        x = (x[0] / nx, x[1] / nx, x[2] / nx)
+        frame = (x, cross(a, x))
+    return Limb(fa, S, shell, frame)
+
+
+# ------------------------------------------------------------------------------ the context
+class LimbContext:
+    """The chain's structure and geometry as Python floats (world frame, joints at zero).
+
+    Attributes:
+        k: shoulder hinges (1, 2 or 3); joint ``k`` is the elbow.
+        kind: ``planar``, ``two_hinge`` or ``three_hinge``.
+        S: shoulder point [m] (planar: the shoulder axis's anchor).
+        axes: the ``k`` unit shoulder axes, proximal first.
+        E, ue: elbow anchor [m] and unit axis.
+        e_rest: ``E - S``.
+        down: unit gravity (world ``-z`` when gravity is zero): the twist's zero.
+        lower, upper: joint ranges [rad] (``-inf``/``inf`` when unlimited).
+        tri: the three-hinge shoulder's constants (ranges, range-end equations), or
+            ``None``.
+    """
+
+    def __init__(self, chain: Chain, k: int):
+        anchors, axes = _zero_axes(chain)
+        self.k = k
+        self.kind = KINDS[k]
+        S = anchors[0] if k == 1 else axes_meeting_point(anchors[:k], axes[:k])
+        assert S is not None
+        self.S = _tup(S)
+        self.axes = tuple(_tup(a) for a in axes[:k])
+        self.E, self.ue = _tup(anchors[k]), _tup(axes[k])
+        self.e_rest = sub(self.E, self.S)
+        g = np.asarray(chain.model.opt.gravity, dtype=np.float64)
+        gn = float(np.linalg.norm(g))
+        self.down = _tup(g / gn) if gn > 0 else (0.0, 0.0, -1.0)
+        self.lower = tuple(float(x) for x in chain.lower)
+        self.upper = tuple(float(x) for x in chain.upper)
+        self.tri = Triple(axes[:3], chain.lower[:3], chain.upper[:3]) if k == 3 else None
+        self._limbs: dict[tuple[float, ...], Limb] = {}
+        self._start: tuple[tuple[float, ...], Vec] = ((), (0.0, 0.0, 0.0))
+
+    def limb(self, chain: Chain, riding: tuple[float, ...]) -> Limb:
+        """The :class:`Limb` with the joints after the elbow at ``riding`` [rad].
+
+        Kept per riding values (at most 64 sets, the oldest dropped first): a solve
+        from the same wrist (a bench, a tracked target) reads MuJoCo once. Reading one
+        runs ``mj_kinematics`` on the scratch data (chain joints at zero, riding joints
+        at ``riding``).
+        """
+        got = self._limbs.get(riding)
+        if got is not None:
+            return got
+        z = np.zeros(chain.n)
+        z[self.k + 1 :] = riding
+        chain.set_q(z)
+        got = _limb(self, _tup(chain.position))
+        if len(self._limbs) >= 64:
+            del self._limbs[next(iter(self._limbs))]
+        self._limbs[riding] = got
+        return got
+
+    def start_elbow(self, q0: list[float]) -> Vec:
+        """``R_sh(q0) (E - S)``: the start's elbow seen from a three-hinge shoulder
+        (remembered for the last start)."""
+        key = (q0[0], q0[1], q0[2])
+        if self._start[0] == key:
+            return self._start[1]
+        v = self.e_rest
+        for j in (2, 1, 0):
+            v = _rot(self.axes[j], key[j], v)
+        self._start = (key, v)
+        return v
+
+
+def _rot(u: Vec, angle: float, v: Vec) -> Vec:
+    """``Rot(u, angle) v`` (Rodrigues, unit ``u``)."""
+    c, s = math.cos(angle), math.sin(angle)
+    p = dot(u, v) * (1.0 - c)
+    w = cross(u, v)
+    return (
+        v[0] * c + w[0] * s + u[0] * p,
+        v[1] * c + w[1] * s + u[1] * p,
+        v[2] * c + w[2] * s + u[2] * p,
+    )
+
+
+# ------------------------------------------------------------------------------ ranges
+def place(q: float, lo: float, hi: float, pref: float) -> float:
+    """``q`` shifted by whole turns: into a range narrower than a turn when it fits
+    (next to its middle), else next to ``pref`` and then into a wider range.
+
+    ``q + 2 pi round((m - q) / 2 pi)`` with ``m`` the range's middle for a narrow
+    range, ``pref`` otherwise.
+    """
+    narrow = hi - lo < TWO_PI  # False for an unlimited joint (inf - -inf)
+    if narrow and lo <= q <= hi:
+        return q
+    m = 0.5 * (lo + hi) if narrow else pref
+    x = q + TWO_PI * round((m - q) / TWO_PI)
+    if not narrow:
+        if x < lo - RANGE_TOL:
+            x += TWO_PI * math.ceil((lo - x) / TWO_PI)
+        elif x > hi + RANGE_TOL:
+            x -= TWO_PI * math.ceil((x - hi) / TWO_PI)
+    return x
+
+
+def inside(q: float, lo: float, hi: float) -> bool:
+    """``lo <= q <= hi`` with the range slack (1e-9 rad)."""
+    return lo - RANGE_TOL <= q <= hi + RANGE_TOL
+
+
+# ------------------------------------------------------------------------------ the cache
+class LimbCache:
+    """What ``two_link`` keeps with a chain (built once by :meth:`Chain.derived`).
+
+    The structure never goes stale (a chain's joints are fixed). The
+    :class:`LimbContext` is read in world coordinates, so it is read again when a joint
+    on the end effector's path that is not in the chain (a free base, a torso hinge, a
+    wrist left out of the chain) has moved since: that is the only rule.
+    """
+
+    def __init__(self, chain: Chain):
+        self.k, self.reason = read_structure(chain)
+        """Shoulder hinges, and why ``two_link`` does not apply (``None`` if it does)."""
+        idx = _qpos_moving_the_limb(chain)
+        contiguous = idx.size and idx[-1] - idx[0] == idx.size - 1
+        self.watch = (
+            slice(int(idx[0]), int(idx[-1]) + 1) if contiguous else idx if idx.size else None
+        )
+        """``qpos`` addresses of those joints (``None``: nothing moves the limb)."""
+        self.seen: list[float] | None = None
+        self.context: LimbContext | None = None
+
+    def current(self, chain: Chain) -> LimbContext:
+        """The chain's :class:`LimbContext`, read again if the limb's base has moved.
+
+        Raises:
+            SolverError: the chain is not a two-link limb (the reason).
+        """
+        if self.reason is not None:
+            raise SolverError(self.reason)
+        seen = None if self.watch is None else chain.data.qpos[self.watch].tolist()
+        if self.context is None or seen != self.seen:
+            self.context = LimbContext(chain, self.k)
+            self.seen = seen
+        return self.context
+
+
+def _qpos_moving_the_limb(chain: Chain) -> NDArray[np.int64]:
+    """``qpos`` addresses of the joints between the world and the end effector's body
+    that are not in the chain (sorted)."""
+    m = chain.model
+    mine = set(chain.joint_ids.tolist())
+    sizes = {int(mujoco.mjtJoint.mjJNT_FREE): 7, int(mujoco.mjtJoint.mjJNT_BALL): 4}
+    idx: list[int] = []
+    for j in chain.path_joint_ids.tolist():
+        if j not in mine:
+            start = int(m.jnt_qposadr[j])
+            idx += range(start, start + sizes.get(int(m.jnt_type[j]), 1))
+    return np.array(sorted(idx), dtype=np.int64)
+
+
+def limb_cache(chain: Chain) -> LimbCache:
+    """The chain's :class:`LimbCache` (made on the first call)."""
+    return chain.derived("two_link", LimbCache)
+
+
+def limb_context(chain: Chain) -> LimbContext:
+    """The chain's :class:`LimbContext` (see :meth:`LimbCache.current`).
+
+    Raises:
+        SolverError: the chain is not a two-link limb.
+    """
+    return chain.derived("two_link", LimbCache).current(chain)
