@@ -66,10 +66,13 @@ def test_targets_are_seeded_and_reachable():
     np.testing.assert_allclose(chain.q, chain.q_home)
 
 
-def test_chain_without_shoulder_skips_two_link():
-    """On a planar 2-link chain two_link is skipped with the structural reason."""
-    report = run_bench(Chain(model(CCD_XML), "p3"), "position", ["two_link"], n=3)
-    assert "3 shoulder hinges" in report.results[0].skipped
+def test_chain_without_arm_structure_skips_closed_form():
+    """On a planar 2-link chain closed_form is skipped with the structural reason (two_link
+    solves it in closed form since it handles planar shoulders)."""
+    report = run_bench(Chain(model(CCD_XML), "p3"), "position", ["closed_form", "two_link"], n=3)
+    skipped, solved = report.results
+    assert "needs 7 hinges" in skipped.skipped and "the chain has 2 joint(s)" in skipped.skipped
+    assert solved.skipped is None and solved.success_rate == 1.0
 
 
 def test_bench_errors():
@@ -79,5 +82,9 @@ def test_bench_errors():
         run_bench(chain, "orientation")
     with pytest.raises(SolverError, match="solver 'fabrik' unknown; solvers: "):
         run_bench(chain, solvers=["fabrik"])
-    with pytest.raises(SolverError, match="n must be >= 1"):
+    with pytest.raises(SolverError, match="n must be an integer >= 1 and <= 1000000, got 0"):
         run_bench(chain, n=0)
+    with pytest.raises(SolverError, match="n must be an integer >= 1 and <= 1000000, got 10000001"):
+        run_bench(chain, n=10_000_001)
+    with pytest.raises(SolverError, match="seed must be an integer >= 0, got -1"):
+        run_bench(chain, n=2, seed=-1)

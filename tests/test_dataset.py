@@ -70,9 +70,11 @@ def test_metadata_names_model_site_joints_and_seed(tmp_path):
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"n": 0}, "n must be an integer >= 1, got 0"),
+        ({"n": 0}, "n must be an integer >= 1 and <= 100000000, got 0"),
+        ({"n": 10**14}, "n must be an integer >= 1 and <= 100000000, got 100000000000000"),
         ({"n": 5, "seed": -1}, "seed must be an integer >= 0, got -1"),
-        ({"n": 5, "chunk": 0}, "chunk must be an integer >= 1, got 0"),
+        ({"n": 5, "chunk": 0}, "chunk must be an integer >= 1 and <= 1048576, got 0"),
+        ({"n": 5, "chunk": 10**7}, "chunk must be an integer >= 1 and <= 1048576, got 10000000"),
         ({"n": 5, "site": "gaze_site"}, "closed_form does not fit chain gaze_site"),
     ],
 )

@@ -357,8 +357,8 @@ def test_render_command(tmp_path, capsys):
         (["--height", "x"], "argument --height: expected an even integer >= 16, got 'x'"),
         (["--frames", "0"], "argument --frames: expected an integer >= 1, got '0'"),
         (["--frames", "two"], "argument --frames: expected an integer >= 1, got 'two'"),
-        (["--fps", "-3"], "argument --fps: expected a number > 0 and <= 1000, got '-3'"),
-        (["--fps", "fast"], "argument --fps: expected a number > 0, got 'fast'"),
+        (["--fps", "-3"], "argument --fps: expected a number >= 0.01 and <= 1000, got '-3'"),
+        (["--fps", "fast"], "argument --fps: expected a number >= 0.01 and <= 1000, got 'fast'"),
         (["--width", "4000"], "render.width: expected at most 1920"),
     ],
 )

@@ -3,6 +3,7 @@ file, the key and what was expected."""
 
 from __future__ import annotations
 
+import math
 import re
 import textwrap
 from dataclasses import replace
@@ -23,7 +24,7 @@ from humanoid_ik.config.scene import (
     load_scene,
 )
 from humanoid_ik.errors import SceneError
-from humanoid_ik.motion import MOTIONS
+from humanoid_ik.motion import MOTIONS, RandomWalk
 from humanoid_ik.solvers import SOLVERS
 
 GOOD = """
@@ -213,8 +214,15 @@ BAD = [
     ),
     ("duration = 2.0", "duration = 0", "duration: expected a number > 0, got 0"),
     ("duration = 2.0", "", "duration: missing; expected a number > 0 (seconds)"),
-    ("fps = 10", "fps = 5000", "fps: expected a number > 0 and <= 1000, got 5000"),
-    ("fps = 10", 'fps = "fast"', "fps: expected a number > 0, got 'fast'"),
+    ("fps = 10", "fps = 5000", "fps: expected a number >= 0.01 and <= 1000, got 5000"),
+    ("fps = 10", "fps = 0.001", "fps: expected a number >= 0.01 and <= 1000, got 0.001"),
+    ("fps = 10", 'fps = "fast"', "fps: expected a number >= 0.01 and <= 1000, got 'fast'"),
+    (
+        "duration = 2.0",
+        "duration = 1e5",
+        "duration: expected a number > 0 and <= 10000 (at most 100000 frames at 10 fps), "
+        "got 100000.0",
+    ),
     ('name = "probe"', 'name = "a b"', "name: expected a name of letters, digits"),
     ('name = "probe"', 'name = "-probe"', "name: expected a name of letters, digits"),
     ("[render]", '[render]\n"tint colour" = 1', 'render."tint colour": unknown key; expected'),
@@ -236,20 +244,35 @@ BAD = [
         "solver.options: option 'restarts' of solver 'dls' must be a finite number >= 0",
     ),
     ('[solver]\nname = "dls"', '[solver]\nnom = "dls"', "solver.nom: unknown key; expected"),
-    ("width = 64", "width = 63", "render.width: expected an even integer >= 16 (pixels), got 63"),
+    (
+        "width = 64",
+        "width = 63",
+        "render.width: expected an even integer >= 16 and <= 4096 (pixels), got 63",
+    ),
+    (
+        "width = 64",
+        "width = 4098",
+        "render.width: expected an even integer >= 16 and <= 4096 (pixels), got 4098",
+    ),
     ("width = 64", "width = 4000", "render.width: expected at most 1920 (the model's off-screen"),
-    ("height = 48", "height = true", "render.height: expected an even integer >= 16 (pixels)"),
+    ("height = 48", "height = true", "render.height: expected an even integer >= 16 and <= 4096"),
     (
         'camera = "front"',
         'camera = "left"',
         "render.camera: expected one of front, side, top, three_quarter, got 'left'",
     ),
-    ("[render]", "[render]\ntrail = -1", "render.trail: expected a number >= 0, got -1"),
+    ("[render]", "[render]\ntrail = -1", "render.trail: expected a number >= 0 and <= 60, got -1"),
+    ("[render]", "[render]\ntrail = 61", "render.trail: expected a number >= 0 and <= 60, got 61"),
+    (
+        "[render]",
+        "[render]\ncontact_sheet = 101",
+        "render.contact_sheet: expected an integer >= 0 and <= 100, got 101",
+    ),
     ('camera = "front"', "camera = 3", "render.camera: expected a camera name, got 3"),
     ('name = "probe"', 'name = "probe"\ndescription = 3', "description: expected a string, got 3"),
     ('site = "right_palm_site"', "site = 3", "effectors[0].site: expected a site name, got 3"),
     ("[render]", "[render]\ngif = 1", "render.gif: expected true or false, got 1"),
-    ("[render]", '[render]\nsnapshots = "all"', "render.snapshots: expected a list of times"),
+    ("[render]", '[render]\nsnapshots = "all"', "render.snapshots: expected a list of at most"),
     ("[render]", "[render]\nsnapshots = [1, -1]", "render.snapshots[1]: expected a number >= 0"),
     ("[render]", "[render]\ncontact_sheet = 2.5", "render.contact_sheet: expected an integer >= 0"),
     (
@@ -430,8 +453,25 @@ def test_check_scene_of_a_python_built_scene():
         targets=sc.targets,
         effectors=sc.effectors,
     )
-    with pytest.raises(SceneError, match=r"fps: expected a number > 0"):
+    with pytest.raises(SceneError, match=r"fps: expected a number >= 0.01 and <= 1000, got nan"):
         check_scene(bad_fps)
     odd = replace(ok, render=RenderSpec(width=65))
     with pytest.raises(SceneError, match=r"render.width: expected an even integer >= 16"):
         check_scene(odd)
+    # the bounds hold for a scene built in code too (docs/limits.md)
+    walk = TargetTrack("t", RandomWalk([0.4, -0.3, 1.2], [0.1] * 3, interval=1e-9))
+    for changed, message in (
+        (replace(ok, duration=1e300), r"duration: expected a number > 0 and <= 10000 \(at most"),
+        (replace(ok, duration=math.inf), r"duration: expected a number > 0, got inf"),
+        (replace(ok, fps=0.001), r"fps: expected a number >= 0.01 and <= 1000, got 0.001"),
+        (replace(ok, render=RenderSpec(trail=1e300)), r"render.trail: expected a number >= 0 and"),
+        (replace(ok, render=RenderSpec(width=8192)), r"render.width: expected an even integer"),
+        (replace(ok, render=RenderSpec(contact_sheet=10**6)), r"render.contact_sheet: expected"),
+        (replace(ok, render=RenderSpec(snapshots=(0.0,) * 101)), r"render.snapshots: expected at"),
+        (
+            replace(ok, targets=(walk,)),
+            r"targets\[0\].motion.interval: expected a number >= 9e-06 \(a random_walk draws",
+        ),
+    ):
+        with pytest.raises(SceneError, match=message):
+            check_scene(changed)

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import importlib
 import json
+import shutil
 import sys
 from pathlib import Path
 
 import pytest
 
 from humanoid_ik.cli import main
+from humanoid_ik.config.sweep_file import model_digest, model_files
+from humanoid_ik.core.models import bundled_model_path
 from humanoid_ik.errors import SweepError
 from humanoid_ik.experiments.sweep import (
     TIMING_COLUMNS,
@@ -106,7 +109,7 @@ def test_scene_seed_changes_random_walk_only(tmp_path):
         ),
         (
             "solvers = ['dls']\n[[targets]]\nname='a'\nn=0",
-            "targets[0].n: expected an integer >= 1, got 0",
+            "targets[0].n: expected an integer >= 1 and <= 1000000, got 0",
         ),
         (
             "solvers = ['dls']\n[[targets]]\nname='a'\nn=2\ntask='walk'",
@@ -130,7 +133,7 @@ def test_scene_seed_changes_random_walk_only(tmp_path):
         ("solvers = ['dls']\n[[scenes]]\nscene=3", "scenes[0].scene: expected a bundled scene"),
         (
             "solvers = ['dls']\n[[scenes]]\nscene='circle'\nframes=0",
-            "scenes[0].frames: expected an integer >= 1, got 0",
+            "scenes[0].frames: expected an integer >= 1 and <= 100000, got 0",
         ),
         ("solvers = ['dls']\n[[scenes]]\nscene='circle'\nspeed=2", "scenes[0].speed: unknown key"),
         ("solvers = ['dls']", "scenes: no scenes and no targets"),
@@ -245,8 +248,10 @@ def test_skipped_solver_is_recorded(tmp_path):
 def test_bad_workers_and_unwritable_out(tmp_path):
     """workers < 1 and an output path under a file are SweepErrors."""
     sweep = parse_sweep({"solvers": ["dls"], "targets": [{"name": "p", "n": 1}]}, "s.toml")
-    with pytest.raises(SweepError, match="workers must be >= 1, got 0"):
+    with pytest.raises(SweepError, match="workers must be an integer >= 1 and <= 256, got 0"):
         run_sweep(sweep, tmp_path, workers=0)
+    with pytest.raises(SweepError, match="workers must be an integer >= 1 and <= 256, got 257"):
+        run_sweep(sweep, tmp_path, workers=257)
     (tmp_path / "file").write_text("")
     with pytest.raises(SweepError, match="cannot write"):
         run_sweep(sweep, tmp_path / "file" / "out")
@@ -314,3 +319,102 @@ def test_broken_scene_job_still_gets_summary_and_plot(tmp_path):
     (rec,) = res.records
     assert rec["status"] == "failed" and "SceneError" in rec["error"]
     assert (tmp_path / "out" / "summary.png").is_file()
+
+
+MODELS = """
+name = "models"
+solvers = ["closed_form"]
+
+[[scenes]]
+scene = "mine.toml"
+frames = 3
+
+[[targets]]
+name = "mine"
+n = 3
+model = "model/scene.xml"
+
+[[targets]]
+name = "bundled"
+n = 3
+"""
+
+
+def _own_model(tmp_path: Path) -> Path:
+    """A copy of the bundled humanoid (``scene.xml`` including ``humanoid.xml``) and a
+    scene and a sweep using it; returns the sweep file."""
+    shutil.copytree(bundled_model_path().parent, tmp_path / "model")
+    scene = (SCENES / "compare_dls.toml").read_text()
+    (tmp_path / "mine.toml").write_text('model = "model/scene.xml"\n' + scene)
+    return _write(tmp_path, MODELS)
+
+
+def test_edited_model_file_runs_its_jobs_again(tmp_path):
+    """Job ids hold the SHA-256 of the model and every file it includes: editing the
+    included humanoid.xml of a copied model reruns exactly the scene and target set that
+    use it (not the one on the bundled model), with the new model's numbers."""
+    path = _own_model(tmp_path)
+    out = tmp_path / "out"
+    first = run_sweep(load_sweep(path), out, workers=1, plot=False)
+    assert len(first.executed) == 3 and first.counts()["ok"] == 3
+    assert run_sweep(load_sweep(path), out, workers=1, plot=False).executed == []
+    included = tmp_path / "model" / "humanoid.xml"
+    text = included.read_text()
+    old = 'name="right_shoulder_flexion_joint" axis="0 -1 0" range="-1.05 3.14"'
+    assert old in text
+    included.write_text(text.replace(old, old.replace("-1.05 3.14", "-0.2 0.2")))
+    sweep = load_sweep(path)
+    mine = sorted(j.id for j in sweep.jobs if j.name in ("mine", "compare_dls"))
+    again = run_sweep(sweep, out, workers=1, plot=False)
+    assert sorted(again.executed) == mine and len(again.cached) == 1
+    before = {r["name"]: r for r in first.records}
+    after = {r["name"]: r for r in again.records}
+    assert after["bundled"] == before["bundled"]
+    assert after["mine"]["id"] != before["mine"]["id"]
+    assert after["mine"]["max_error_m"] != before["mine"]["max_error_m"]
+
+
+def test_model_changed_after_loading_fails_its_jobs(tmp_path):
+    """A model edited between loading the sweep and running a job fails that job, naming
+    the model; the job on the bundled model still runs."""
+    path = _own_model(tmp_path)
+    sweep = load_sweep(path)
+    (tmp_path / "model" / "humanoid.xml").write_text(
+        (tmp_path / "model" / "humanoid.xml").read_text() + "\n<!-- edited -->\n"
+    )
+    res = run_sweep(sweep, tmp_path / "out", workers=1, plot=False)
+    failed = {r["name"]: r["error"] for r in res.records if r["status"] == "failed"}
+    assert sorted(failed) == ["compare_dls", "mine"]
+    assert all(
+        "scene.xml" in e and "changed after the sweep was loaded" in e for e in failed.values()
+    )
+    assert res.counts()["ok"] == 1
+
+
+def test_model_files_follow_includes_and_assets(tmp_path):
+    """The files of a model: includes (nested, from the main file's folder or the
+    including file's), and asset files under the compiler's meshdir and texturedir."""
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "main.xml").write_text(
+        '<mujoco><compiler meshdir="meshes" texturedir="tex"/><include file="sub/a.xml"/>'
+        '<asset><mesh file="arm.stl"/><texture name="t" type="2d" file="skin.png"/>'
+        '<mesh name="gone" file="missing.stl"/></asset></mujoco>'
+    )
+    (tmp_path / "sub" / "a.xml").write_text('<mujoco><include file="b.xml"/></mujoco>')
+    (tmp_path / "sub" / "b.xml").write_text("<mujoco/>")
+    (tmp_path / "meshes" / "arm.stl").write_bytes(b"solid")
+    (tmp_path / "tex").mkdir()
+    (tmp_path / "tex" / "skin.png").write_bytes(b"png")
+    files = [p.relative_to(tmp_path).as_posix() for p in model_files(tmp_path / "main.xml")]
+    assert files == ["main.xml", "sub/a.xml", "sub/b.xml", "meshes/arm.stl", "tex/skin.png"]
+    digest = model_digest(tmp_path / "main.xml")
+    for f in files:
+        before = (tmp_path / f).read_bytes()
+        (tmp_path / f).write_bytes(before + b" ")
+        assert model_digest(tmp_path / "main.xml") != digest, f
+        (tmp_path / f).write_bytes(before)
+    assert model_digest(tmp_path / "main.xml") == digest
+    moved = tmp_path / "moved"
+    shutil.copytree(tmp_path, moved, ignore=shutil.ignore_patterns("moved"))
+    assert model_digest(moved / "main.xml") == digest  # contents, not where the tree is

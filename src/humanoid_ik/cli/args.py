@@ -19,8 +19,11 @@ __all__ = [
     "check_writable",
     "floats",
     "int_at_least",
+    "int_in",
     "names",
     "options",
+    "nonempty_path",
+    "ray_address",
 ]
 
 
@@ -62,6 +65,40 @@ def int_at_least(minimum: int) -> Callable[[str], int]:
     return parse
 
 
+def int_in(minimum: int, maximum: int) -> Callable[[str], int]:
+    """An argparse type: an integer from ``minimum`` to ``maximum``, else a one-line error
+    naming the bound it breaks (both bounds when it is too large)."""
+    at_least = int_at_least(minimum)
+
+    def parse(text: str) -> int:
+        value = at_least(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer >= {minimum} and <= {maximum}, got '{text}'"
+            )
+        return value
+
+    return parse
+
+
+def nonempty_path(text: str) -> str:
+    """An argparse type: a file or folder path, not empty (an empty ``--out`` is a
+    mistake, never the default)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a path, got '{text}'")
+    return text
+
+
+def ray_address(text: str) -> str:
+    """An argparse type: ``local``, ``auto`` or a cluster address (no spaces)."""
+    if not text.strip() or any(c.isspace() for c in text):
+        raise argparse.ArgumentTypeError(
+            "expected 'local', 'auto' or a cluster address (HOST:PORT, ray://HOST:PORT), "
+            f"got '{text}'"
+        )
+    return text
+
+
 def names(text: str | None) -> list[str] | None:
     """A comma-separated name list (``None`` stays ``None``)."""
     if text is None:
@@ -99,7 +136,7 @@ def options(items: Sequence[str] | None) -> dict[str, Any]:
 
 def add_chain_args(p: argparse.ArgumentParser) -> None:
     """``--model``, ``--site`` and ``--joints``: which chain a command works on."""
-    p.add_argument("--model", help="MJCF path (default: the bundled humanoid)")
+    p.add_argument("--model", type=nonempty_path, help="MJCF path (default: the bundled humanoid)")
     p.add_argument("--site", help="end-effector site (default: right_palm_site)")
     p.add_argument("--joints", help="comma-separated joint names (default: the path rule)")
 
@@ -110,7 +147,11 @@ def chain_from_args(args: argparse.Namespace) -> Chain:
 
 
 def check_writable(path: Path) -> None:
-    """Fail with a :class:`UsageError` unless ``path``'s folder exists and is writable."""
+    """Fail with a :class:`UsageError` unless ``path`` is not a folder and its folder exists
+    and is writable (checked before a command runs, so nothing is computed in vain and
+    no temporary file is left)."""
+    if path.is_dir():
+        raise UsageError(f"cannot write '{path}': it is a folder; expected a file path")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise UsageError(f"cannot write '{path}': folder '{parent}' does not exist")

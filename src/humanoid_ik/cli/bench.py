@@ -6,8 +6,17 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.cli.args import add_chain_args, chain_from_args, check_writable, names
+from humanoid_ik.cli.args import (
+    add_chain_args,
+    chain_from_args,
+    check_writable,
+    int_at_least,
+    int_in,
+    names,
+    nonempty_path,
+)
 from humanoid_ik.cli.progress import progress_bar
+from humanoid_ik.core.checks import MAX_TARGETS
 from humanoid_ik.core.models import display_model
 from humanoid_ik.core.types import TARGET_KINDS
 from humanoid_ik.experiments.bench import run_bench
@@ -17,9 +26,9 @@ __all__ = ["register"]
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    chain = chain_from_args(args)
-    if args.json:
+    if args.json is not None:
         check_writable(Path(args.json))
+    chain = chain_from_args(args)
     bar = progress_bar(args.n, "solve")
 
     def progress(name: str, done: int, total: int) -> None:
@@ -48,7 +57,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         f"seed {report.seed}"
     )
     print(report.table())
-    if args.json:
+    if args.json is not None:
         write_json(args.json, report.to_dict(), indent=2)
         print(f"wrote {args.json}")
     return 0
@@ -60,7 +69,14 @@ def register(subparsers: Any) -> None:
     add_chain_args(p)
     p.add_argument("--task", default="position", choices=list(TARGET_KINDS))
     p.add_argument("--solvers", metavar="a,b", help="solvers to run (default: all)")
-    p.add_argument("--n", type=int, default=500, help="number of targets (default: 500)")
-    p.add_argument("--seed", type=int, default=0, help="target seed (default: 0)")
-    p.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    p.add_argument(
+        "--n",
+        type=int_in(1, MAX_TARGETS),
+        default=500,
+        help=f"number of targets, at most {MAX_TARGETS:,} (default: 500)",
+    )
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="target seed (default: 0)")
+    p.add_argument(
+        "--json", type=nonempty_path, metavar="PATH", help="also write the results as JSON"
+    )
     p.set_defaults(func=_cmd_bench)

@@ -8,19 +8,26 @@ import time
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.cli.args import UsageError, add_chain_args, int_at_least, names
+from humanoid_ik.cli.args import (
+    UsageError,
+    add_chain_args,
+    check_writable,
+    int_at_least,
+    int_in,
+    names,
+    nonempty_path,
+)
 from humanoid_ik.cli.progress import progress_bar
-from humanoid_ik.experiments.dataset import write_dataset
+from humanoid_ik.experiments.dataset import MAX_CHUNK, MAX_PAIRS, write_dataset
 
 __all__ = ["register"]
-
-_positive_int = int_at_least(1)
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix != ".npz":
         raise UsageError(f"--out '{out}' must end in .npz")
+    check_writable(out)
     bar = progress_bar(args.n, "pair", out.name)
 
     def progress(done: int, total: int) -> None:
@@ -57,11 +64,23 @@ def register(subparsers: Any) -> None:
         description="Write N seeded (target pose, joint solution) pairs into an .npz file, "
         "in chunks; the same seed and N always give the same file.",
     )
-    p.add_argument("--n", type=_positive_int, required=True, metavar="N", help="pairs")
-    p.add_argument("--out", required=True, metavar="FILE", help="output .npz file")
+    p.add_argument(
+        "--n",
+        type=int_in(1, MAX_PAIRS),
+        required=True,
+        metavar="N",
+        help=f"pairs (at most {MAX_PAIRS:,})",
+    )
+    p.add_argument(
+        "--out", type=nonempty_path, required=True, metavar="FILE", help="output .npz file"
+    )
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed (default: 0)")
     p.add_argument(
-        "--chunk", type=_positive_int, default=65536, metavar="C", help="pairs per chunk"
+        "--chunk",
+        type=int_in(1, MAX_CHUNK),
+        default=65536,
+        metavar="C",
+        help=f"pairs per chunk (at most {MAX_CHUNK:,})",
     )
     add_chain_args(p)
     p.set_defaults(func=_cmd_dataset)

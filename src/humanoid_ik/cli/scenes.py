@@ -13,32 +13,47 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.cli.args import UsageError, int_at_least
+from humanoid_ik.cli.args import UsageError, int_in, nonempty_path
 from humanoid_ik.cli.progress import progress_bar
+from humanoid_ik.config.specs import (
+    MAX_FPS,
+    MAX_FRAMES,
+    MAX_IMAGE_SIZE,
+    MIN_FPS,
+    MIN_IMAGE_SIZE,
+)
 from humanoid_ik.errors import RenderError
 
 __all__ = ["register"]
 
-_positive_int = int_at_least(1)
-
 
 def _size(text: str) -> int:
+    """A frame width or height: even, :data:`MIN_IMAGE_SIZE` to :data:`MAX_IMAGE_SIZE`."""
     try:
         v = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an even integer >= 16, got '{text}'") from None
-    if v < 16 or v % 2:
-        raise argparse.ArgumentTypeError(f"expected an even integer >= 16, got '{text}'")
+        v = None
+    if v is None or v < MIN_IMAGE_SIZE or v % 2:
+        raise argparse.ArgumentTypeError(
+            f"expected an even integer >= {MIN_IMAGE_SIZE}, got '{text}'"
+        )
+    if v > MAX_IMAGE_SIZE:
+        raise argparse.ArgumentTypeError(
+            f"expected an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE}, got '{text}'"
+        )
     return v
 
 
 def _fps(text: str) -> float:
+    """A frame rate from :data:`MIN_FPS` to :data:`MAX_FPS`."""
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'") from None
-    if not (v > 0 and v <= 1000):
-        raise argparse.ArgumentTypeError(f"expected a number > 0 and <= 1000, got '{text}'")
+        v = None
+    if v is None or not MIN_FPS <= v <= MAX_FPS:
+        raise argparse.ArgumentTypeError(
+            f"expected a number >= {MIN_FPS:g} and <= {MAX_FPS:g}, got '{text}'"
+        )
     return v
 
 
@@ -94,7 +109,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         gif=True if args.gif else None,
     )
     check_scene(scene)
-    out = Path(args.out) if args.out else Path("renders") / scene.name
+    out = Path("renders") / scene.name if args.out is None else Path(args.out)
     check_output_dir(out)
     backend = select_backend()
     if backend.note:
@@ -145,9 +160,19 @@ def register(subparsers: Any) -> None:
         "frames, contact sheet and metrics into renders/<scene>/ (or --out).",
     )
     p.add_argument("scene", metavar="SCENE", help="a scene .toml file or a bundled scene name")
-    p.add_argument("--out", metavar="DIR", help="output folder (default: renders/<scene>)")
+    p.add_argument(
+        "--out",
+        type=nonempty_path,
+        metavar="DIR",
+        help="output folder (default: renders/<scene>)",
+    )
     p.add_argument("--solver", metavar="NAME", help="replace the scene's solver")
-    p.add_argument("--frames", type=_positive_int, metavar="N", help="render N frames")
+    p.add_argument(
+        "--frames",
+        type=int_in(1, MAX_FRAMES),
+        metavar="N",
+        help=f"render N frames (at most {MAX_FRAMES:,})",
+    )
     p.add_argument("--width", type=_size, metavar="W", help="frame width [px]")
     p.add_argument("--height", type=_size, metavar="H", help="frame height [px]")
     p.add_argument("--camera", metavar="NAME", help="a named camera of the model")

@@ -8,14 +8,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.cli.args import UsageError, int_at_least
+from humanoid_ik.cli.args import UsageError, int_in, nonempty_path, ray_address
 from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.config.sweep_file import load_sweep
-from humanoid_ik.experiments.sweep import read_records, run_sweep
+from humanoid_ik.experiments.sweep import damaged_records, read_records, run_sweep
+from humanoid_ik.experiments.sweep.executors import MAX_WORKERS
 
 __all__ = ["register"]
-
-_positive_int = int_at_least(1)
 
 
 def _fmt(value, scale: float = 1.0, spec: str = ".3g") -> str:
@@ -24,10 +23,17 @@ def _fmt(value, scale: float = 1.0, spec: str = ".3g") -> str:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     sweep = load_sweep(args.sweep)
-    out = Path(args.out) if args.out else Path("renders") / "sweeps" / sweep.name
+    out = Path("renders") / "sweeps" / sweep.name if args.out is None else Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out '{out}' is a file; expected a folder")
-    todo = len(sweep.jobs) - len(read_records(out, sweep.jobs)) if out.is_dir() else len(sweep.jobs)
+    todo = len(sweep.jobs)
+    if out.is_dir():
+        todo -= len(read_records(out, sweep.jobs))
+        for path, why in damaged_records(out, sweep.jobs).items():
+            print(
+                f"humanoid-ik: note: {path} is not a whole job record ({why}); that job runs again",
+                file=sys.stderr,
+            )
     where = "local pool" if args.ray is None else f"Ray ({args.ray})"
     print(
         f"sweep {sweep.name}: {len(sweep.jobs)} job(s), {len(sweep.jobs) - todo} already done, "
@@ -96,15 +102,22 @@ def register(subparsers: Any) -> None:
         "summary.png into renders/sweeps/<sweep> (or --out).",
     )
     p.add_argument("sweep", metavar="SWEEP.toml", help="a sweep file")
-    p.add_argument("--out", metavar="DIR", help="output folder (default: renders/sweeps/<name>)")
+    p.add_argument(
+        "--out",
+        type=nonempty_path,
+        metavar="DIR",
+        help="output folder (default: renders/sweeps/<name>)",
+    )
     p.add_argument(
         "--workers",
-        type=_positive_int,
+        type=int_in(1, MAX_WORKERS),
         metavar="N",
-        help="processes (local pool) or CPUs (--ray local); default: all cores",
+        help=f"processes (local pool) or CPUs (--ray local), at most {MAX_WORKERS}; "
+        "default: all cores",
     )
     p.add_argument(
         "--ray",
+        type=ray_address,
         metavar="ADDRESS",
         help="run on Ray: 'local' starts a local instance, else a cluster address ('auto')",
     )

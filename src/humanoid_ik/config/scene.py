@@ -52,6 +52,14 @@ from typing import Any
 import mujoco
 
 from humanoid_ik.config.specs import (
+    MAX_CONTACT_SHEET,
+    MAX_FPS,
+    MAX_FRAMES,
+    MAX_IMAGE_SIZE,
+    MAX_SNAPSHOTS,
+    MAX_TRAIL,
+    MIN_FPS,
+    MIN_IMAGE_SIZE,
     TASKS,
     EffectorSpec,
     RenderSpec,
@@ -71,7 +79,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.checks import check_bool, check_choice, check_int, check_number
 from humanoid_ik.core.models import bundled_dir, bundled_model_path, load_model, model_cameras
 from humanoid_ik.errors import HumanoidIKError, SceneError
-from humanoid_ik.motion import MOTIONS, Motion, Orientation, TargetTrack
+from humanoid_ik.motion import MAX_KNOTS, MOTIONS, Motion, Orientation, RandomWalk, TargetTrack
 from humanoid_ik.solvers import SOLVERS, make_solver
 
 __all__ = [
@@ -85,11 +93,10 @@ __all__ = [
     "check_scene",
     "display_path",
     "find_scene",
+    "frames_limit",
     "load_scene",
     "parse_scene",
 ]
-
-_MAX_FPS = 1000.0
 
 
 # ----------------------------------------------------------------------------- paths
@@ -129,21 +136,22 @@ _TOP = {
     "description": "a string",
     "model": "an MJCF path (relative to the scene file)",
     "duration": "a number > 0 (seconds)",
-    "fps": "a number > 0 (frames per second)",
+    "fps": f"a number >= {MIN_FPS:g} and <= {MAX_FPS:g} (frames per second)",
     "solver": "a table with name (and options)",
     "render": "a table",
     "targets": "an array of tables [[targets]] with name and motion",
     "effectors": "an array of tables [[effectors]] with site and target",
 }
 _SOLVER = {"name": "a solver name", "options": "a table of solver options"}
+_SIZE = f"an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE} (pixels)"
 _RENDER = {
-    "width": "an even integer >= 16 (pixels)",
-    "height": "an even integer >= 16 (pixels)",
+    "width": _SIZE,
+    "height": _SIZE,
     "camera": "a camera name",
-    "trail": "a number >= 0 (seconds)",
+    "trail": f"a number >= 0 and <= {MAX_TRAIL:g} (seconds)",
     "gif": "true or false",
-    "snapshots": "a list of times >= 0 (seconds)",
-    "contact_sheet": "an integer >= 0",
+    "snapshots": f"a list of at most {MAX_SNAPSHOTS} times >= 0 (seconds)",
+    "contact_sheet": f"an integer >= 0 and <= {MAX_CONTACT_SHEET}",
 }
 _TARGET = {
     "name": "a target name",
@@ -219,28 +227,41 @@ def _render_spec(r: TomlReader, value: Any) -> RenderSpec:
     for k in ("width", "height"):
         if k in tbl:
             v = tbl[k]
-            if isinstance(v, bool) or not isinstance(v, int) or v < 16 or v % 2:
+            if isinstance(v, bool) or not isinstance(v, int) or not _frame_size_ok(v):
                 raise r.expect(f"render.{k}", _RENDER[k], v)
             kw[k] = v
     if "camera" in tbl:
         kw["camera"] = r.string("render.camera", tbl["camera"], "a camera name")
     if "trail" in tbl:
-        kw["trail"] = r.call("render", check_number, "trail", tbl["trail"], low=0.0)
+        kw["trail"] = r.call("render", check_number, "trail", tbl["trail"], low=0.0, high=MAX_TRAIL)
     if "gif" in tbl:
         kw["gif"] = r.call("render", check_bool, "gif", tbl["gif"])
     if "snapshots" in tbl:
         snaps = tbl["snapshots"]
         if not isinstance(snaps, list):
             raise r.expect("render.snapshots", _RENDER["snapshots"], snaps)
+        if len(snaps) > MAX_SNAPSHOTS:
+            raise r.expect("render.snapshots", f"at most {MAX_SNAPSHOTS} times", len(snaps))
         kw["snapshots"] = tuple(
             r.call("render", check_number, f"snapshots[{i}]", s, low=0.0)
             for i, s in enumerate(snaps)
         )
     if "contact_sheet" in tbl:
         kw["contact_sheet"] = r.call(
-            "render", check_int, "contact_sheet", tbl["contact_sheet"], low=0
+            "render",
+            check_int,
+            "contact_sheet",
+            tbl["contact_sheet"],
+            low=0,
+            high=MAX_CONTACT_SHEET,
         )
     return RenderSpec(**kw)
+
+
+def _frame_size_ok(v: int) -> bool:
+    """An even frame width or height within :data:`MIN_IMAGE_SIZE` and
+    :data:`MAX_IMAGE_SIZE`."""
+    return MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v % 2 == 0
 
 
 def _array_of_tables(r: TomlReader, doc: Mapping[str, Any], key: str) -> list[dict[str, Any]]:
@@ -319,6 +340,29 @@ def _model_path(r: TomlReader, doc: Mapping[str, Any], base: Path | None) -> Pat
     return model
 
 
+def _check_duration(r: TomlReader, duration: float, fps: float) -> None:
+    """``duration x fps`` is at most :data:`MAX_FRAMES` frames."""
+    if max(1, round(duration * fps)) > MAX_FRAMES:
+        raise r.expect(
+            "duration",
+            f"a number > 0 and <= {MAX_FRAMES / fps:g} (at most {MAX_FRAMES} frames at "
+            f"{fps:g} fps)",
+            duration,
+        )
+
+
+def frames_limit(scene: Scene) -> int:
+    """The most frames ``scene`` may run: :data:`MAX_FRAMES`, and no frame later than its
+    motions reach (a ``random_walk`` covers :data:`MAX_KNOTS` knots; see
+    :attr:`~humanoid_ik.motion.Motion.horizon`)."""
+    limit = MAX_FRAMES
+    for track in scene.targets:
+        horizon = track.motion.horizon
+        if math.isfinite(horizon):
+            limit = min(limit, int(horizon * scene.fps) + 1)
+    return max(1, limit)
+
+
 def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -> Scene:
     """A :class:`Scene` from a parsed TOML document (names are not checked against the
     model; :func:`load_scene` does that).
@@ -342,9 +386,8 @@ def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -
         raise r.expect("description", "a string", description)
     model = _model_path(r, doc, base)
     duration = r.call("", check_number, "duration", doc["duration"], low=0.0, strict=True)
-    fps = r.call("", check_number, "fps", doc.get("fps", 30), low=0.0, strict=True)
-    if fps > _MAX_FPS:
-        raise r.expect("fps", f"a number > 0 and <= {_MAX_FPS:g}", doc["fps"])
+    fps = r.call("", check_number, "fps", doc.get("fps", 30), low=MIN_FPS, high=MAX_FPS)
+    _check_duration(r, duration, fps)
     solver = _solver_spec(r, "solver", doc.get("solver", {"name": "dls"}))
     render = _render_spec(r, doc.get("render", {}))
     targets = _targets(r, doc)
@@ -424,20 +467,48 @@ def _check_render(r: TomlReader, scene: Scene, model: mujoco.MjModel) -> None:
         )
     offw, offh = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
     for k, v, lim in (("width", scene.render.width, offw), ("height", scene.render.height, offh)):
-        if v > lim:
+        if MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v > lim:
             raise r.expect(
                 f"render.{k}", f"at most {lim} (the model's off-screen buffer, visual/global)", v
             )
-        if v < 16 or v % 2:
+        if not _frame_size_ok(v):
             raise r.expect(f"render.{k}", _RENDER[k], v)
+
+
+def _check_sizes(r: TomlReader, scene: Scene) -> None:
+    """Every size-like value within its bound (for a scene built in code; a scene file's
+    values are checked as they are read): frame rate, frames, trail, contact sheet,
+    snapshots, and each motion reaching the last frame."""
+    fps = r.call("", check_number, "fps", scene.fps, low=MIN_FPS, high=MAX_FPS)
+    duration = r.call("", check_number, "duration", scene.duration, low=0.0, strict=True)
+    _check_duration(r, duration, fps)
+    rs = scene.render
+    r.call("render", check_number, "trail", rs.trail, low=0.0, high=MAX_TRAIL)
+    r.call("render", check_int, "contact_sheet", rs.contact_sheet, low=0, high=MAX_CONTACT_SHEET)
+    if len(rs.snapshots) > MAX_SNAPSHOTS:
+        raise r.expect("render.snapshots", f"at most {MAX_SNAPSHOTS} times", len(rs.snapshots))
+    last = (scene.n_frames - 1) / fps
+    for i, track in enumerate(scene.targets):
+        m = track.motion
+        if last > m.horizon and isinstance(m, RandomWalk):
+            raise r.expect(
+                f"targets[{i}].motion.interval",
+                f"a number >= {last / (MAX_KNOTS - 3):.3g} (a random_walk draws at most "
+                f"{MAX_KNOTS} knots, and this one runs {last:g} s)",
+                m.interval,
+            )
+        if last > m.horizon:
+            raise r.fail(
+                f"targets[{i}].motion", f"reaches {m.horizon:g} s; the scene runs {last:g} s"
+            )
 
 
 def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain]:
     """Check a scene against its model and return one chain per effector.
 
-    Checks the sites and joints exist, no two effectors share a joint, the camera exists,
-    the frame fits MuJoCo's off-screen buffer, and each effector's solver can solve its
-    chain and task.
+    Checks every size-like value is within its bound (``docs/limits.md``), the sites and
+    joints exist, no two effectors share a joint, the camera exists, the frame fits
+    MuJoCo's off-screen buffer, and each effector's solver can solve its chain and task.
 
     Args:
         scene: the scene.
@@ -450,6 +521,7 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
         SceneError: naming the scene file, the key and what was expected.
     """
     r = TomlReader(scene.source, SceneError)
+    _check_sizes(r, scene)
     if model is None:
         try:
             model = load_model(scene.model)
@@ -458,8 +530,6 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
     owner: dict[str, int] = {}
     chains = [_check_effector(r, scene, model, i, owner) for i in range(len(scene.effectors))]
     _check_render(r, scene, model)
-    if not (math.isfinite(scene.fps) and scene.fps > 0):
-        raise r.expect("fps", _TOP["fps"], scene.fps)
     return chains
 
 

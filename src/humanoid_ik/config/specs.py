@@ -17,6 +17,14 @@ from humanoid_ik.motion import TargetTrack
 from humanoid_ik.solvers import SOLVERS, make_solver
 
 __all__ = [
+    "MAX_CONTACT_SHEET",
+    "MAX_FPS",
+    "MAX_FRAMES",
+    "MAX_IMAGE_SIZE",
+    "MAX_SNAPSHOTS",
+    "MAX_TRAIL",
+    "MIN_FPS",
+    "MIN_IMAGE_SIZE",
     "TASKS",
     "EffectorSpec",
     "RenderSpec",
@@ -28,6 +36,26 @@ __all__ = [
 TASKS = ("reach", "look_at")
 """Effector tasks: ``reach`` puts the site on the target (and in its orientation for a
 pose target); ``look_at`` aims the site's x axis at the target."""
+
+# The bounds of a run's sizes (``docs/limits.md``), checked by
+# :func:`humanoid_ik.config.scene.check_scene`, the scene file reader and the CLI.
+MIN_FPS = 0.01
+"""Lowest frame rate [1/s]: a frame every 100 s (a preview of a long scene in a few
+frames); the video encoder fails on rates near zero."""
+MAX_FPS = 1000.0
+"""Highest frame rate [1/s]."""
+MAX_FRAMES = 100_000
+"""Most frames in one run: ``duration x fps``, ``--frames``, a sweep's ``frames``."""
+MIN_IMAGE_SIZE = 16
+"""Smallest frame width or height [px] (and both must be even)."""
+MAX_IMAGE_SIZE = 4096
+"""Largest frame width or height [px] (the model's off-screen buffer may allow less)."""
+MAX_TRAIL = 60.0
+"""Longest end-effector trail drawn [s]."""
+MAX_CONTACT_SHEET = 100
+"""Most thumbnails in a contact sheet."""
+MAX_SNAPSHOTS = 100
+"""Most snapshot times in ``render.snapshots``."""
 
 
 @dataclass(frozen=True)
@@ -87,12 +115,16 @@ class RenderSpec:
     """How a run is filmed.
 
     Attributes:
-        width, height: frame size [px], even, at least 16.
+        width, height: frame size [px], even, :data:`MIN_IMAGE_SIZE` to
+            :data:`MAX_IMAGE_SIZE`.
         camera: a named camera of the model.
-        trail: how much of each end effector's recent path is drawn [s] (0: none).
+        trail: how much of each end effector's recent path is drawn [s] (0: none; at
+            most :data:`MAX_TRAIL`).
         gif: also write an animated GIF.
-        snapshots: times [s] of the frames saved as PNG (empty: four spread evenly).
-        contact_sheet: thumbnails in the contact sheet (0: no sheet).
+        snapshots: times [s] of the frames saved as PNG (empty: four spread evenly; at
+            most :data:`MAX_SNAPSHOTS`).
+        contact_sheet: thumbnails in the contact sheet (0: no sheet; at most
+            :data:`MAX_CONTACT_SHEET`).
     """
 
     width: int = 640
@@ -111,8 +143,8 @@ class Scene:
 
     Attributes:
         name: the scene's name (also its output folder).
-        duration: [s].
-        fps: frames per second [1/s].
+        duration: [s]; ``duration x fps`` is at most :data:`MAX_FRAMES` frames.
+        fps: frames per second [1/s], :data:`MIN_FPS` to :data:`MAX_FPS`.
         solver: the default solver.
         targets: the moving targets.
         effectors: which site tracks which target.

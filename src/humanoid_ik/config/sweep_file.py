@@ -22,11 +22,13 @@ A sweep is a TOML file (read with ``tomllib``)::
     n = 200
     site = "right_palm_site"           # optional; also model (relative path) and joints
 
-The grid is ``(scenes + target sets) x solver configurations x seeds``. A seed draws a
-target set; for a scene it replaces the seed of every ``random_walk`` motion, and a scene
-without one runs once per configuration (its ``seed`` is empty). Every job has a stable
-id, a hash of what it computes (for a scene, of the scene file's bytes), so a rerun
-finds the results it already has.
+The grid is ``(scenes + target sets) x solver configurations x seeds``, at most
+:data:`MAX_JOBS` jobs. A seed draws a target set; for a scene it replaces the seed of
+every ``random_walk`` motion, and a scene without one runs once per configuration (its
+``seed`` is empty). Every job has a stable id, a hash of what it computes, including
+the SHA-256 of every file it reads (the scene file, and the model file with every file
+it includes or loads: :func:`scene_digest`, :func:`model_digest`), so a rerun finds the
+results it already has, and an edited scene or model file runs its jobs again.
 
 Every mistake raises :class:`~humanoid_ik.errors.SweepError` naming the file, the key and
 what was expected, e.g. ``sweeps/x.toml: seeds[1]: expected an integer >= 0, got -1``.
@@ -37,15 +39,18 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import os
-from collections.abc import Mapping
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.config.scene import Scene, find_scene, load_scene
+from humanoid_ik.config.scene import Scene, find_scene, frames_limit, load_scene
 from humanoid_ik.config.toml import NAME, TomlReader, display_path, read_toml
 from humanoid_ik.core.chain import DEFAULT_SITE, Chain
+from humanoid_ik.core.checks import MAX_TARGETS
 from humanoid_ik.core.models import bundled_model_path
 from humanoid_ik.core.types import TARGET_KINDS
 from humanoid_ik.errors import HumanoidIKError, SweepError, show_value
@@ -54,9 +59,12 @@ from humanoid_ik.solvers import SOLVERS, make_solver
 
 __all__ = [
     "KINDS",
+    "MAX_JOBS",
     "Job",
     "Sweep",
     "load_sweep",
+    "model_digest",
+    "model_files",
     "parse_sweep",
     "reseeded",
     "scene_digest",
@@ -64,6 +72,8 @@ __all__ = [
 
 KINDS = ("scene", "targets")
 """What a job solves: a scene run, or a seeded target set."""
+MAX_JOBS = 100_000
+"""Most jobs in one sweep (sets x solver configurations x seeds)."""
 
 
 # ----------------------------------------------------------------------------- values
@@ -93,8 +103,9 @@ class Job:
         options: the solver's options as sorted ``(key, value)`` pairs.
         seed: the seed (``None`` for a scene without random motion).
         params: what else defines the job, as sorted ``(key, value)`` pairs: for a scene
-            ``frames`` and ``scene_sha256`` (of the file), for a target set ``task``,
-            ``n``, ``site``, ``joints`` and ``model`` (as written in the sweep file).
+            ``frames``, ``scene_sha256`` (of the file) and ``model_sha256`` (of its model's
+            files), for a target set ``task``, ``n``, ``site``, ``joints``, ``model`` (as
+            written in the sweep file) and ``model_sha256``.
         location: the scene file or model to load (resolved); not part of the id.
     """
 
@@ -220,6 +231,10 @@ def _solver_configs(r: TomlReader, doc: Mapping[str, Any]) -> list[tuple[str, di
             if opt in options:
                 raise r.fail(f"{key}.grid.{opt}", "also given in options; give it in one place")
         axes = [[(opt, v) for v in values] for opt, values in grid.items()]
+        if math.prod(len(a) for a in axes) + len(configs) > MAX_JOBS:
+            raise r.fail(
+                f"{key}.grid", f"expected at most {MAX_JOBS} configurations (one job each)"
+            )
         for combo in itertools.product(*axes):
             opts = {**options, **dict(combo)}
             try:
@@ -264,6 +279,87 @@ def scene_digest(path: str | os.PathLike) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
 
 
+_COMPILER_DIRS = ("assetdir", "meshdir", "texturedir")
+"""``<compiler>`` attributes naming folders that asset files are looked up in."""
+
+
+def _existing(ref: str, bases: Iterable[Path]) -> list[Path]:
+    """``ref`` under each of ``bases`` where that file exists (absolute ``ref`` as is)."""
+    out: list[Path] = []
+    for b in bases:
+        p = (b / ref).resolve()
+        if p.is_file() and p not in out:
+            out.append(p)
+    return out
+
+
+def model_files(path: str | os.PathLike) -> list[Path]:
+    """The files MuJoCo may read to compile the MJCF file at ``path``: the file itself,
+    every ``<include>`` (recursively) and every file an element names in its ``file``
+    attribute (meshes, textures, height fields, skins, sub-models, recursively).
+
+    A name is looked up where MuJoCo may take it from: the main file's folder, the
+    including file's folder, and the ``<compiler>`` ``assetdir``, ``meshdir`` and
+    ``texturedir`` under either; every existing match is listed (a file listed that
+    MuJoCo does not read only makes a job rerun when it changes, never the reverse).
+    Returns absolute paths, in discovery order.
+    """
+    found: list[Path] = []
+    _collect(Path(path).resolve(), found)
+    return found
+
+
+def _collect(main: Path, found: list[Path]) -> None:
+    """Append to ``found`` the files of the model ``main`` not in it yet (see
+    :func:`model_files`)."""
+    todo, dirs = [main], {""}
+    refs: list[tuple[Path, str, bool]] = []  # (file it is in, name, names a sub-model)
+    while todo:
+        f = todo.pop(0)
+        if f in found:
+            continue
+        found.append(f)
+        try:
+            root = ET.parse(f).getroot()
+        except (OSError, ET.ParseError):  # MuJoCo will say why it does not compile
+            continue
+        for el in root.iter():
+            if el.tag == "compiler":
+                dirs.update(v for k in _COMPILER_DIRS if (v := el.get(k)))
+            ref = el.get("file")
+            if ref is None:
+                continue
+            if el.tag == "include":
+                todo.extend(_existing(ref, (main.parent, f.parent)))
+            else:
+                refs.append((f, ref, el.tag == "model"))
+    for f, ref, sub_model in refs:
+        bases = [b / d for b in dict.fromkeys((main.parent, f.parent)) for d in sorted(dirs)]
+        for p in _existing(ref, bases):
+            if sub_model:
+                _collect(p, found)
+            elif p not in found:
+                found.append(p)
+
+
+def model_digest(path: str | os.PathLike) -> str:
+    """16 hex digits of the SHA-256 of every file of :func:`model_files` (each named by its
+    path relative to the model's folder, then its bytes), part of a job's id: editing
+    the model, a file it includes or an asset it loads changes it; moving the whole tree
+    does not."""
+    main = Path(path).resolve()
+    h = hashlib.sha256()
+    for f in model_files(main):
+        try:
+            data = f.read_bytes()
+        except OSError:
+            data = b""
+        name = os.path.relpath(f, main.parent)
+        h.update(f"{name}\0{len(data)}\0".encode())
+        h.update(data)
+    return h.hexdigest()[:16]
+
+
 def _scene_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[str, Any]]:
     """One set per ``[[scenes]]`` entry, its scene loaded and checked now."""
     out = []
@@ -283,13 +379,16 @@ def _scene_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[
             raise r.fail(f"{key}.scene", str(exc)) from None
         frames = tbl.get("frames")
         if frames is not None:
-            frames = r.integer(f"{key}.frames", frames, 1)
-        sha = scene_digest(path)
+            frames = r.integer(f"{key}.frames", frames, 1, frames_limit(scene))
         out.append(
             {
                 "kind": "scene",
                 "name": scene.name,
-                "params": {"frames": frames or scene.n_frames, "scene_sha256": sha},
+                "params": {
+                    "frames": frames or scene.n_frames,
+                    "scene_sha256": scene_digest(path),
+                    "model_sha256": model_digest(scene.model),
+                },
                 "location": str(path.resolve()),
                 "seeded": _has_random_motion(scene),
             }
@@ -304,7 +403,7 @@ def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict
         key = f"targets[{i}]"
         tbl = r.keys(key, entry, _TARGETS, required=("name", "n"))
         name = r.name(f"{key}.name", tbl["name"])
-        n = r.integer(f"{key}.n", tbl["n"], 1)
+        n = r.integer(f"{key}.n", tbl["n"], 1, MAX_TARGETS)
         task = tbl.get("task", "pose")
         if task not in TARGET_KINDS:
             raise r.expect(f"{key}.task", _TARGETS["task"], task)
@@ -332,7 +431,14 @@ def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict
             {
                 "kind": "targets",
                 "name": name,
-                "params": {"task": task, "n": n, "site": site, "joints": joints, "model": model},
+                "params": {
+                    "task": task,
+                    "n": n,
+                    "site": site,
+                    "joints": joints,
+                    "model": model,
+                    "model_sha256": model_digest(location),
+                },
                 "location": str(location),
                 "seeded": True,
             }
@@ -363,6 +469,11 @@ def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -
     sets = _scene_sets(r, doc, base) + _target_sets(r, doc, base)
     if not sets:
         raise r.fail("scenes", "no scenes and no targets; give [[scenes]] or [[targets]]")
+    count = sum(len(configs) * (len(seeds) if s["seeded"] else 1) for s in sets)
+    if count > MAX_JOBS:
+        raise r.fail(
+            "", f"expected at most {MAX_JOBS} jobs (sets x configurations x seeds), got {count}"
+        )
     jobs: list[Job] = []
     for s in sets:
         for solver, opts in configs:

@@ -144,10 +144,12 @@ class TomlReader:
             raise self.expect(key, what, value)
         return value
 
-    def integer(self, key: str, value: Any, low: int) -> int:
-        """``value`` when it is an integer (not a float) ``>= low``."""
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise self.expect(key, f"an integer >= {low}", value)
+    def integer(self, key: str, value: Any, low: int, high: int | None = None) -> int:
+        """``value`` when it is an integer (not a float) ``>= low`` and ``<= high``."""
+        bad = isinstance(value, bool) or not isinstance(value, int) or value < low
+        if bad or (high is not None and value > high):
+            upper = "" if high is None else f" and <= {high}"
+            raise self.expect(key, f"an integer >= {low}{upper}", value)
         return value
 
     def name(self, key: str, value: Any, *, first_alphanumeric: bool = False) -> str:

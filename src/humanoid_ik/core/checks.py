@@ -5,6 +5,10 @@ Each ``check_*`` returns the converted value or raises
 constructors call them on their parameters, and the TOML reader
 (:class:`~humanoid_ik.config.toml.TomlReader`) calls them on file values, turning the
 error into a :class:`~humanoid_ik.errors.SceneError` that names the file and the key.
+
+Size-like values have explicit upper bounds, named in the error (``docs/limits.md``
+lists every bound of the package): :data:`MAX_POINTS` here for a motion's points,
+:data:`MAX_TARGETS` for a benchmark's or a sweep's target set.
 """
 
 from __future__ import annotations
@@ -18,7 +22,14 @@ from numpy.typing import NDArray
 
 from humanoid_ik.errors import TrajectoryError
 
+MAX_POINTS = 10_000
+"""Most points a motion's ``points`` list may hold (``points``, ``waypoints``)."""
+MAX_TARGETS = 1_000_000
+"""Most targets in one benchmark run (``bench --n``) or one sweep target set (``n``)."""
+
 __all__ = [
+    "MAX_POINTS",
+    "MAX_TARGETS",
     "check_bool",
     "check_choice",
     "check_int",
@@ -28,38 +39,64 @@ __all__ = [
 ]
 
 
-def check_number(name: str, value: Any, *, low: float | None = None, strict: bool = False) -> float:
-    """``value`` as a finite float, ``> low`` (``strict``) or ``>= low``.
+def _range(kind: str, low: float | None, high: float | None, strict: bool = False) -> str:
+    """``a number > 0 and <= 1000``: what a value must be, for a message."""
+    parts = [kind]
+    if low is not None:
+        parts.append(f"{'>' if strict else '>='} {_show(low)}")
+    if high is not None:
+        parts.append(f"{'and ' if low is not None else ''}<= {_show(high)}")
+    return " ".join(parts)
+
+
+def _show(bound: float) -> str:
+    """A bound as written in a message: an integer in full (``100000``), else ``%g``."""
+    return str(int(bound)) if float(bound).is_integer() and abs(bound) < 1e15 else f"{bound:g}"
+
+
+def check_number(
+    name: str,
+    value: Any,
+    *,
+    low: float | None = None,
+    strict: bool = False,
+    high: float | None = None,
+) -> float:
+    """``value`` as a finite float, ``> low`` (``strict``) or ``>= low``, and ``<= high``.
 
     Args:
         name: the parameter's name (for the error).
         value: the value given.
         low: the lower bound, or ``None`` for none.
-        strict: the bound is exclusive.
+        strict: the lower bound is exclusive.
+        high: the upper bound (inclusive), or ``None`` for none.
     """
-    if low is None:
-        expected = "a number"
-    else:
-        expected = f"a number {'>' if strict else '>='} {low:g}"
+    expected = _range("a number", low, high, strict)
     if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
         raise TrajectoryError(name, expected, value)
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an int beyond float's range
+        raise TrajectoryError(name, expected, value) from None
     if not math.isfinite(v):
         raise TrajectoryError(name, expected, value)
     if low is not None and (v <= low if strict else v < low):
         raise TrajectoryError(name, expected, value)
+    if high is not None and v > high:
+        raise TrajectoryError(name, expected, value)
     return v
 
 
-def check_int(name: str, value: Any, *, low: int | None = None) -> int:
-    """``value`` as an int ``>= low`` (a float with an integer value is accepted)."""
-    expected = "an integer" if low is None else f"an integer >= {low}"
+def check_int(name: str, value: Any, *, low: int | None = None, high: int | None = None) -> int:
+    """``value`` as an int ``>= low`` and ``<= high`` (a float with an integer value is
+    accepted)."""
+    expected = _range("an integer", low, high)
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer)):
         raise TrajectoryError(name, expected, value)
     if isinstance(value, float) and (not math.isfinite(value) or value != int(value)):
         raise TrajectoryError(name, expected, value)
     v = int(value)
-    if low is not None and v < low:
+    if (low is not None and v < low) or (high is not None and v > high):
         raise TrajectoryError(name, expected, value)
     return v
 
@@ -107,14 +144,18 @@ def check_vector(
     return arr
 
 
-def check_points(name: str, value: Any, *, minimum: int = 1) -> NDArray[np.float64]:
-    """``value`` as a read-only ``(N, 3)`` array [m] with ``N >= minimum``; a bad point
-    is named ``name[i]``."""
+def check_points(
+    name: str, value: Any, *, minimum: int = 1, maximum: int = MAX_POINTS
+) -> NDArray[np.float64]:
+    """``value`` as a read-only ``(N, 3)`` array [m] with ``minimum <= N <= maximum``; a
+    bad point is named ``name[i]``."""
     expected = f"a list of at least {minimum} point(s) [x, y, z]"
     if isinstance(value, (str, bytes, dict)) or not isinstance(value, (Sequence, np.ndarray)):
         raise TrajectoryError(name, expected, value)
     if len(value) < minimum:
         raise TrajectoryError(name, expected, value)
+    if len(value) > maximum:  # the count, not the list, goes into the message
+        raise TrajectoryError(name, f"at most {maximum} points", len(value))
     rows = [check_vector(f"{name}[{i}]", p) for i, p in enumerate(value)]
     arr = np.array(rows, dtype=np.float64)
     arr.setflags(write=False)

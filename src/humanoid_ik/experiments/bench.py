@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.checks import MAX_TARGETS
 from humanoid_ik.core.measures import on_target
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.core.types import TARGET_KINDS, Target
@@ -120,18 +121,22 @@ def run_bench(
         chain: the chain (its home pose is every solve's start).
         task: ``position`` or ``pose``.
         solvers: names; default every solver (those that do not apply are skipped).
-        n: number of targets (>= 1).
-        seed: seed of the target generator.
+        n: number of targets, 1 to :data:`~humanoid_ik.core.checks.MAX_TARGETS`.
+        seed: seed of the target generator (>= 0).
         model_name: how the report names the model.
         progress: optional callable ``(solver, done, n)`` called during the run.
 
     Raises:
-        SolverError: unknown task or solver name, or ``n < 1``.
+        SolverError: unknown task or solver name, ``n`` or ``seed`` out of range.
     """
     if task not in TARGET_KINDS:
         raise SolverError(f"task '{task}' unknown; tasks: {choices(TARGET_KINDS)}")
-    if n < 1:
-        raise SolverError(f"n must be >= 1, got {n}")
+    for name, value, low, high in (("n", n, 1, MAX_TARGETS), ("seed", seed, 0, None)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise SolverError(f"{name} must be an integer, got {value!r}")
+        if value < low or (high is not None and value > high):
+            upper = "" if high is None else f" and <= {high}"
+            raise SolverError(f"{name} must be an integer >= {low}{upper}, got {value!r}")
     names = list(SOLVERS) if solvers is None else list(solvers)
     for name in names:
         if name not in SOLVERS:

@@ -26,7 +26,9 @@ member             shape       meaning
 Chunks are written as they are made into raw files beside the output and packed into the
 ``.npz`` at the end, which is then renamed into place
 (:func:`~humanoid_ik.outputs.atomic.atomic_path`: never half written); memory stays at a
-few chunks whatever ``n`` is.
+few chunks whatever ``n`` is. ``n`` is at most :data:`MAX_PAIRS` and ``chunk`` at most
+:data:`MAX_CHUNK`, and a dataset that would not fit on the disk (raw chunks and the
+file, :func:`bytes_needed`) is refused before it starts.
 """
 
 from __future__ import annotations
@@ -52,7 +54,10 @@ from humanoid_ik.outputs.atomic import atomic_path
 __all__ = [
     "BLOCK",
     "FORMAT",
+    "MAX_CHUNK",
+    "MAX_PAIRS",
     "Dataset",
+    "bytes_needed",
     "make_block",
     "read_dataset",
     "write_dataset",
@@ -61,6 +66,10 @@ __all__ = [
 BLOCK = 4096
 """Samples per seeded block (fixed: changing it changes every dataset)."""
 FORMAT = "humanoid_ik.dataset/1"
+MAX_PAIRS = 100_000_000
+"""Most pairs in one dataset (about 11 GB for a 7-joint arm)."""
+MAX_CHUNK = 1 << 20
+"""Most pairs made and held in memory per step (about 120 MB for a 7-joint arm)."""
 _ARRAYS = ("positions", "quats", "q", "closed_form_ok")
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
@@ -138,16 +147,31 @@ def write_dataset(
     """
     from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 
-    for name, value, low in (("n", n, 1), ("seed", seed, 0), ("chunk", chunk, 1)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise DatasetError(f"{name} must be an integer >= {low}, got {value!r}")
+    for name, value, low, high in (
+        ("n", n, 1, MAX_PAIRS),
+        ("seed", seed, 0, None),
+        ("chunk", chunk, 1, MAX_CHUNK),
+    ):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise DatasetError(f"{name} must be an integer, got {value!r}")
+        if value < low or (high is not None and value > high):
+            upper = "" if high is None else f" and <= {high}"
+            raise DatasetError(f"{name} must be an integer >= {low}{upper}, got {value!r}")
     out = Path(path)
+    if out.is_dir():
+        raise DatasetError(f"cannot write '{out}': it is a folder; expected a .npz file path")
     if not out.parent.is_dir():
         raise DatasetError(f"cannot write '{out}': folder '{out.parent}' does not exist")
     chain = Chain(model, site, joints)
     reason = ClosedForm().applicable(chain, True)
     if reason is not None:
         raise DatasetError(f"closed_form does not fit chain {chain.ee_name}: {reason}")
+    need, free = bytes_needed(int(n), chain.n), shutil.disk_usage(out.parent).free
+    if need > free:
+        raise DatasetError(
+            f"{n} pairs need about {need / 1e9:.3g} GB in '{out.parent}' (raw chunks and "
+            f"the file); {free / 1e9:.3g} GB free"
+        )
     meta = {
         "format": FORMAT,
         "model": display_model(model),
@@ -167,6 +191,13 @@ def write_dataset(
         with atomic_path(out) as tmp_zip:
             _pack(Path(tmpdir), tmp_zip, n, chain.n, meta)
     return out
+
+
+def bytes_needed(n: int, n_joints: int) -> int:
+    """Disk space [bytes] that writing ``n`` pairs of an ``n_joints`` chain takes at its
+    peak: the raw chunks and the ``.npz`` beside them (each row: 3 + 4 + ``n_joints``
+    float64 and one bool), plus 1 MB of headers."""
+    return 2 * n * (8 * (3 + 4 + n_joints) + 1) + (1 << 20)
 
 
 def _write_chunks(

@@ -15,11 +15,12 @@ Modules: ``base`` (the :class:`Motion` interface, easing and interpolation), ``c
 from humanoid_ik.motion.base import Motion, hermite, plane_basis, smoothstep
 from humanoid_ik.motion.curves import Circle, FigureEight, Lissajous
 from humanoid_ik.motion.orientation import Orientation
-from humanoid_ik.motion.paths import OutAndBack, Points, RandomWalk, Waypoints
+from humanoid_ik.motion.paths import MAX_KNOTS, OutAndBack, Points, RandomWalk, Waypoints
 from humanoid_ik.motion.registry import MOTIONS
 from humanoid_ik.motion.track import TargetTrack
 
 __all__ = [
+    "MAX_KNOTS",
     "MOTIONS",
     "Circle",
     "FigureEight",

@@ -92,6 +92,12 @@ class Motion(ABC):
     def position(self, t: float) -> NDArray[np.float64]:
         """Target position ``(3,)`` [m] at time ``t`` [s] (``t < 0`` is read as 0)."""
 
+    @property
+    def horizon(self) -> float:
+        """The latest time [s] the motion can be evaluated at: ``inf``, except for a motion
+        that keeps what it draws (a ``random_walk`` holds a bounded number of knots)."""
+        return math.inf
+
     def positions(self, times: ArrayLike) -> NDArray[np.float64]:
         """Positions ``(N, 3)`` [m] at each of ``times`` ``(N,)`` [s]."""
         return np.array([self.position(float(t)) for t in np.asarray(times, dtype=np.float64)])

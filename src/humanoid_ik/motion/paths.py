@@ -22,7 +22,11 @@ from humanoid_ik.core.checks import (
 from humanoid_ik.errors import TrajectoryError
 from humanoid_ik.motion.base import Motion, hermite, set_frozen, smoothstep
 
-__all__ = ["OutAndBack", "Points", "RandomWalk", "Waypoints"]
+__all__ = ["MAX_KNOTS", "OutAndBack", "Points", "RandomWalk", "Waypoints"]
+
+MAX_KNOTS = 100_000
+"""Most knots a :class:`RandomWalk` draws and keeps (about 12 MB); it runs for
+``(MAX_KNOTS - 3) * interval`` seconds (its :attr:`~RandomWalk.horizon`)."""
 
 
 @dataclass(frozen=True)
@@ -169,7 +173,9 @@ class RandomWalk(Motion):
     ``k_{i+1} = reflect(k_i + N(0, step^2 I))`` with a ``numpy`` generator seeded by
     ``seed`` and each coordinate reflected back into ``center +- half_extent``. The
     target passes through every knot with velocities by finite differences (zero at
-    ``k_0``), so a seed always gives the same path.
+    ``k_0``), so a seed always gives the same path. Knots are kept once drawn, at most
+    :data:`MAX_KNOTS` of them: the walk covers :attr:`horizon` seconds, and a time past
+    it is a :class:`~humanoid_ik.errors.TrajectoryError`.
 
     Args:
         center: box centre ``(3,)`` [m].
@@ -219,8 +225,19 @@ class RandomWalk(Motion):
             out[i] = lo[i] + (2.0 * w[i] - y if y > w[i] else y)
         return out
 
+    @property
+    def horizon(self) -> float:
+        """The latest time [s] the walk reaches with :data:`MAX_KNOTS` knots."""
+        return (MAX_KNOTS - 3) * self.interval
+
     def knot(self, i: int) -> NDArray[np.float64]:
-        """Knot ``i`` ``(3,)`` [m] (drawn in order, so knot ``i`` never depends on the caller)."""
+        """Knot ``i`` ``(3,)`` [m] (drawn in order, so knot ``i`` never depends on the caller).
+
+        Raises:
+            TrajectoryError: ``i >= MAX_KNOTS``.
+        """
+        if i >= MAX_KNOTS:
+            raise TrajectoryError("knot", f"an index < {MAX_KNOTS} (MAX_KNOTS)", i)
         while len(self._knots) <= i:
             step = self._rng.normal(0.0, self.step, 3)
             self._knots.append(self.reflect(self._knots[-1] + step))
@@ -228,6 +245,13 @@ class RandomWalk(Motion):
 
     def position(self, t: float) -> NDArray[np.float64]:
         t = max(t, 0.0)
+        if not t <= self.horizon:
+            raise TrajectoryError(
+                "t",
+                f"a time <= {self.horizon:g} s (a random_walk draws at most {MAX_KNOTS} "
+                f"knots, one every interval = {self.interval:g} s)",
+                t,
+            )
         h = self.interval
         i = int(t // h)
         s = t / h - i

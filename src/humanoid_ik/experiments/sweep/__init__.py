@@ -12,7 +12,12 @@ records on disk and what is left to run). The sweep file itself (:class:`Job`,
 from humanoid_ik.config.sweep_file import Job, Sweep, load_sweep, parse_sweep
 from humanoid_ik.experiments.sweep.executors import import_ray
 from humanoid_ik.experiments.sweep.jobs import COLUMNS, TIMING_COLUMNS, run_job
-from humanoid_ik.experiments.sweep.resume import SweepResult, read_records, run_sweep
+from humanoid_ik.experiments.sweep.resume import (
+    SweepResult,
+    damaged_records,
+    read_records,
+    run_sweep,
+)
 from humanoid_ik.experiments.sweep.summary import plot_summary, summary_rows, write_summary
 
 __all__ = [
@@ -21,6 +26,7 @@ __all__ = [
     "Job",
     "Sweep",
     "SweepResult",
+    "damaged_records",
     "import_ray",
     "load_sweep",
     "parse_sweep",

@@ -10,6 +10,7 @@ preload), so it imports what a job needs and nothing for writing summaries.
 from __future__ import annotations
 
 import math
+import os
 import time
 import traceback
 from collections.abc import Sequence
@@ -18,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from humanoid_ik.config.scene import SolverSpec, load_scene
-from humanoid_ik.config.sweep_file import Job, reseeded, scene_digest
+from humanoid_ik.config.sweep_file import Job, model_digest, reseeded, scene_digest
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.errors import SweepError
 from humanoid_ik.experiments.bench import make_targets, not_reaching, run_trials
@@ -67,14 +68,31 @@ def _nan_median(values: Sequence[float | None]) -> float | None:
     return float(np.median(arr)) if arr.size else None
 
 
+def _check_model(job: Job, model: str | os.PathLike) -> None:
+    """The model's files are those the job's id was made from (when it names them).
+
+    Raises:
+        SweepError: a model file changed after the sweep was loaded.
+    """
+    want = job.param.get("model_sha256")
+    if want is not None and model_digest(model) != want:
+        raise SweepError(
+            str(model),
+            "",
+            "the model or a file it includes changed after the sweep was loaded; load it again",
+        )
+
+
 def _run_targets(job: Job) -> dict[str, Any]:
     """A target-set job: the seeded targets solved by the benchmark loop from home.
 
     Raises:
-        SweepError: the job has no seed (a target set is always drawn from one).
+        SweepError: the job has no seed (a target set is always drawn from one), or the
+            model changed after the sweep was loaded.
     """
     if job.seed is None:
         raise SweepError(None, "seed", f"target-set job {job.describe()} needs a seed")
+    _check_model(job, job.location)
     p = job.param
     chain = Chain(job.location, p["site"], p["joints"])
     pose = p["task"] == "pose"
@@ -96,11 +114,12 @@ def _run_targets(job: Job) -> dict[str, Any]:
 
 
 def _run_scene(job: Job) -> dict[str, Any]:
-    """A scene job: the scene file (unchanged since the sweep was loaded) run with the
-    job's solver and seed; errors and success over the frames whose target is in reach.
+    """A scene job: the scene file and its model (unchanged since the sweep was loaded)
+    run with the job's solver and seed; errors and success over the frames whose target
+    is in reach.
 
     Raises:
-        SweepError: the scene file changed after the sweep was loaded.
+        SweepError: the scene file or its model changed after the sweep was loaded.
     """
     p = job.param
     scene = load_scene(job.location)
@@ -108,6 +127,7 @@ def _run_scene(job: Job) -> dict[str, Any]:
         raise SweepError(
             job.location, "", "the scene file changed after the sweep was loaded; load it again"
         )
+    _check_model(job, scene.model)
     scene = scene.with_overrides(solver=SolverSpec(job.solver, job.options_dict))
     if job.seed is not None:
         scene = reseeded(scene, job.seed)

@@ -1,6 +1,8 @@
 """Running a whole sweep, resumably: each finished job's record is a file
 ``out/jobs/<id>.json``, so a rerun runs only the jobs without a finished record (new
-ones, failed ones, ones whose file was deleted), then writes the summary of all.
+ones, failed ones, ones whose file was deleted or damaged), then writes the summary of
+all. A record file that is not a whole record of its job (cut short, edited, another
+job's) counts as missing: :func:`damaged_records` says which and why.
 """
 
 from __future__ import annotations
@@ -15,11 +17,12 @@ from typing import Any
 
 from humanoid_ik.config.sweep_file import Job, Sweep
 from humanoid_ik.errors import SweepError
-from humanoid_ik.experiments.sweep.executors import import_ray, run_local, run_ray
+from humanoid_ik.experiments.sweep.executors import MAX_WORKERS, import_ray, run_local, run_ray
+from humanoid_ik.experiments.sweep.jobs import COLUMNS
 from humanoid_ik.experiments.sweep.summary import plot_summary, status_counts, write_summary
 from humanoid_ik.outputs.atomic import write_json
 
-__all__ = ["SweepResult", "read_records", "run_sweep"]
+__all__ = ["SweepResult", "damaged_records", "read_records", "run_sweep"]
 
 _RESULTS = "jobs"
 """The folder under ``out`` of the job records."""
@@ -53,24 +56,85 @@ def _result_path(out: Path, job: Job) -> Path:
     return out / _RESULTS / f"{job.id}.json"
 
 
-def _read_record(path: Path) -> dict[str, Any] | None:
-    """The record at ``path``, or ``None`` when it is missing or unreadable."""
-    try:
-        rec = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return None
-    return rec if isinstance(rec, dict) and "status" in rec else None
+_NUMBERS = (
+    "success_rate",
+    "max_error_m",
+    "median_error_m",
+    "max_orientation_error_rad",
+    "median_solve_ms",
+    "wall_s",
+)
+"""Record columns holding a number or ``null``."""
+
+
+def _problem(rec: Any, job: Job) -> str | None:
+    """Why ``rec`` is not a whole record of ``job`` (``None`` when it is one)."""
+    if not isinstance(rec, dict):
+        return "not a JSON object"
+    missing = [k for k in COLUMNS if k not in rec]
+    if missing:
+        more = ", ..." if len(missing) > 3 else ""
+        return f"no {', '.join(missing[:3])}{more}"
+    if rec["status"] not in ("ok", "skipped", "failed"):
+        return f"status {rec['status']!r}"
+    mine: dict[str, Any] = {"id": job.id, "kind": job.kind, "name": job.name}
+    mine |= {"solver": job.solver, "config": job.config, "options": job.options_dict}
+    mine["seed"] = job.seed
+    mine = json.loads(json.dumps(mine))  # as the record file holds them (tuples as lists)
+    wrong = [k for k, v in mine.items() if rec[k] != v]
+    if wrong:
+        return f"{wrong[0]} {rec[wrong[0]]!r} is not the job's"
+    for k in _NUMBERS:
+        v = rec[k]
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            return f"{k} {v!r} is not a number"
+    if rec["samples"] is not None and (
+        isinstance(rec["samples"], bool) or not isinstance(rec["samples"], int)
+    ):
+        return f"samples {rec['samples']!r} is not an integer"
+    return None
+
+
+def _scan(out: Path, jobs: Sequence[Job]) -> tuple[dict[str, dict[str, Any]], dict[Path, str]]:
+    """The whole records under ``out`` of the given jobs by id, and the record files that
+    are there but damaged, with the reason."""
+    found: dict[str, dict[str, Any]] = {}
+    damaged: dict[Path, str] = {}
+    for job in jobs:
+        path = _result_path(out, job)
+        try:
+            text = path.read_text()
+        except FileNotFoundError:
+            continue
+        except (OSError, UnicodeDecodeError) as exc:
+            damaged[path] = f"cannot be read: {exc}"
+            continue
+        try:
+            rec = json.loads(text)
+        except ValueError:
+            damaged[path] = "not JSON"
+            continue
+        why = _problem(rec, job)
+        if why is None:
+            found[job.id] = rec
+        else:
+            damaged[path] = why
+    return found, damaged
 
 
 def read_records(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[str, dict[str, Any]]:
     """The finished records under ``out`` of the given jobs, by id (``ok`` and ``skipped``;
-    a failed job is run again)."""
-    found = {}
-    for job in jobs:
-        rec = _read_record(_result_path(Path(out), job))
-        if rec is not None and rec["status"] in ("ok", "skipped"):
-            found[job.id] = rec
-    return found
+    a failed job, and one whose record is damaged, is run again)."""
+    found, _ = _scan(Path(out), jobs)
+    return {k: r for k, r in found.items() if r["status"] in ("ok", "skipped")}
+
+
+def damaged_records(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[Path, str]:
+    """The record files under ``out`` of the given jobs that are not whole records of
+    their job (unreadable, not JSON, a column missing or of the wrong type, another
+    job's), each with the reason; :func:`run_sweep` runs those jobs again."""
+    _, damaged = _scan(Path(out), jobs)
+    return damaged
 
 
 def _make_out(out: Path) -> None:
@@ -117,14 +181,17 @@ def run_sweep(
         The :class:`SweepResult`.
 
     Raises:
-        SweepError: ``workers < 1``, Ray missing, or ``out`` not writable.
+        SweepError: ``workers`` not from 1 to :data:`MAX_WORKERS`, Ray missing, Ray not
+            answering at ``ray_address``, or ``out`` not writable.
     """
-    if workers is not None and workers < 1:
-        raise SweepError(None, "", f"workers must be >= 1, got {workers}")
+    if workers is not None and not 1 <= workers <= MAX_WORKERS:
+        raise SweepError(
+            None, "", f"workers must be an integer >= 1 and <= {MAX_WORKERS}, got {workers}"
+        )
     out = Path(out)
     _make_out(out)
     if ray_address is not None:
-        import_ray()
+        import_ray(ray_address)
     t0 = time.perf_counter()
     records = read_records(out, sweep.jobs)
     cached = [j.id for j in sweep.jobs if j.id in records]

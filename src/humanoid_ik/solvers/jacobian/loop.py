@@ -9,7 +9,12 @@ per solve and MuJoCo's arrays are read through views, so the loop allocates litt
 A run that stalls (less than 1 % progress in ``stall_window`` iterations) or hits
 ``max_iterations`` restarts, up to ``restarts`` times, from the poses of the chain's seed
 library (:mod:`humanoid_ik.solvers.jacobian.seeds`) whose FK lies nearest the target, alternating
-with seeded random in-range poses. The best pose seen is returned.
+with seeded random in-range poses. The best pose seen is returned. A step that is not
+finite (an option so large that it overflows) ends that start like a stall.
+
+The options' upper bounds (:data:`OPTION_BOUNDS`) keep a solve finite in time, memory
+and arithmetic; a value beyond one is a :class:`~humanoid_ik.errors.SolverError` naming
+it.
 """
 
 from __future__ import annotations
@@ -26,11 +31,24 @@ from numpy.typing import NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.types import IKResult, Status, Target
+from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.jacobian.seeds import seed_library
 from humanoid_ik.solvers.options import SolverOptions
 
-__all__ = ["JacobianOptions", "JacobianSolver"]
+__all__ = ["OPTION_BOUNDS", "JacobianOptions", "JacobianSolver"]
+
+OPTION_BOUNDS: dict[str, float] = {
+    "max_iterations": 100_000,
+    "restarts": 1_000,
+    "stall_window": 100_000,
+    "nullspace_gain": 1.0,
+}
+"""Upper bound of an option of the Jacobian family (the lower bound is 0, checked for
+every solver): iterations, restarts and the stall window bound a solve's time and
+memory; a ``nullspace_gain`` of 1 already moves all the way to home in the null space,
+and more overshoots. Other options are unbounded: a value so large that a step
+overflows ends that start (see the module's docstring)."""
 
 
 @dataclass(frozen=True)
@@ -62,6 +80,17 @@ class JacobianSolver(Solver):
     supports_orientation: ClassVar[bool] = True
     Options: ClassVar[type[SolverOptions]] = JacobianOptions
     options: JacobianOptions
+
+    def __init__(self, **options: Any):
+        super().__init__(**options)
+        for key, high in OPTION_BOUNDS.items():
+            value = getattr(self.options, key, None)
+            if value is not None and value > high:
+                kind = "an integer" if isinstance(value, int) else "a finite number"
+                raise SolverError(
+                    f"option '{key}' of solver '{self.name}' must be {kind} >= 0 and "
+                    f"<= {high:g}, got {value!r}"
+                )
 
     def prepare(self, chain: Chain) -> None:
         """Build the chain's seed library (used by the restarts) before any timed solve."""
@@ -159,6 +188,9 @@ class JacobianSolver(Solver):
                 if gain > 0.0:
                     dq += self._nullspace(J) @ (gain * (chain.q_home - q))
                 big = max(-dq.min(), dq.max())
+                if not math.isfinite(big):  # overflow: this start ends like a stall
+                    iterations += it
+                    break
                 if big > max_step:
                     dq *= max_step / big
                 q += dq

@@ -1,0 +1,324 @@
+"""Regression table of the attack on the command line (issue 14): each bad input as
+(command arguments, expected exit status, expected message fragment), run through the
+real CLI, ``humanoid_ik.cli.main(argv)`` in-process, and a few as real subprocesses.
+
+Placeholders in the arguments are files the ``files`` fixture writes: ``{sweep}`` (a
+one-job sweep file), ``{tmp}`` (the test's folder), ``{scene:NAME}`` (the bundled
+``circle`` scene with one value changed, see :data:`SCENE_EDITS`) and ``{sweep:NAME}``
+(the one-job sweep with one value changed, see :data:`SWEEP_EDITS`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from humanoid_ik import Chain, Target
+from humanoid_ik.cli import main
+from humanoid_ik.core.models import bundled_dir
+from humanoid_ik.motion import MAX_KNOTS, Points, RandomWalk
+from humanoid_ik.solvers.jacobian.dls import DLS
+
+SWEEP = """
+name = "attack"
+solvers = ["closed_form"]
+
+[[targets]]
+name = "a"
+n = 2
+"""
+
+SCENE_EDITS = {
+    "duration": ("duration = 4.0", "duration = 1e300"),
+    "long": ("duration = 4.0", "duration = 3334.0"),
+    "fps": ("fps = 30", "fps = 0.001"),
+    "trail": ("trail = 2.0", "trail = 1e300"),
+    "width": ('camera = "front"', 'camera = "front"\nwidth = 10000'),
+    "sheet": ('camera = "front"', 'camera = "front"\ncontact_sheet = 1000000'),
+    "snapshots": ('camera = "front"', f'camera = "front"\nsnapshots = {[0.0] * 101}'),
+    "interval": (
+        'motion = { kind = "circle", center = [0.40, -0.32, 1.20], radius = 0.12, '
+        "normal = [1, 0, 0], period = 4.0 }",
+        'motion = { kind = "random_walk", center = [0.4, -0.3, 1.2], '
+        "half_extent = [0.1, 0.1, 0.1], interval = 1e-9 }",
+    ),
+    "walk": (
+        'motion = { kind = "circle", center = [0.40, -0.32, 1.20], radius = 0.12, '
+        "normal = [1, 0, 0], period = 4.0 }",
+        'motion = { kind = "random_walk", center = [0.4, -0.3, 1.2], '
+        "half_extent = [0.1, 0.1, 0.1], interval = 0.001 }",
+    ),
+    "points": (
+        'motion = { kind = "circle", center = [0.40, -0.32, 1.20], radius = 0.12, '
+        "normal = [1, 0, 0], period = 4.0 }",
+        'motion = { kind = "points", points = ' + str([[0.4, -0.3, 1.2]] * 10_001) + " }",
+    ),
+}
+"""Scene files that break a bound: name -> (text of circle.toml, replaced by)."""
+
+SWEEP_EDITS = {
+    "n": ("n = 2", "n = 1000000000"),
+    "frames": ("[[targets]]", '[[scenes]]\nscene = "random_walk"\nframes = 1000000\n\n[[targets]]'),
+    "walk-frames": (
+        "[[targets]]",
+        '[[scenes]]\nscene = "scene_walk.toml"\nframes = 5000\n[[targets]]',
+    ),
+    "jobs": (
+        'solvers = ["closed_form"]',
+        f"seeds = {list(range(400))}\n"
+        f'solvers = [{{ name = "dls", grid = {{ restarts = {list(range(300))} }} }}]',
+    ),
+}
+"""Sweep files that break a bound: name -> (text of :data:`SWEEP`, replaced by)."""
+
+SOLVE = ["solve", "--target", "0.3,-0.3,1.1"]
+
+CASES = [
+    # --- item 7: tracebacks and hangs that are one line now
+    ("bench-seed", ["bench", "--n", "2", "--solvers", "dls", "--seed", "-1"], 2,
+     "argument --seed: expected an integer >= 0, got '-1'"),
+    ("nullspace-dls", [*SOLVE, "--option", "nullspace_gain=1e308"], 2,
+     "option 'nullspace_gain' of solver 'dls' must be a finite number >= 0 and <= 1, "
+     "got 1e+308"),
+    ("nullspace-pinv", [*SOLVE, "--solver", "pseudoinverse", "--option", "nullspace_gain=1e308"],
+     2, "option 'nullspace_gain' of solver 'pseudoinverse' must be a finite number >= 0 and <= 1"),
+    ("nullspace-transpose",
+     [*SOLVE, "--solver", "jacobian_transpose", "--option", "nullspace_gain=1e308"], 2,
+     "option 'nullspace_gain' of solver 'jacobian_transpose' must be a finite number >= 0"),
+    ("ray-empty", ["sweep", "{sweep}", "--out", "{tmp}/o", "--ray", ""], 2,
+     "argument --ray: expected 'local', 'auto' or a cluster address (HOST:PORT, "
+     "ray://HOST:PORT), got ''"),
+    ("ray-space", ["sweep", "{sweep}", "--out", "{tmp}/o", "--ray", "a b"], 2,
+     "argument --ray: expected 'local', 'auto' or a cluster address"),
+    ("fps-tiny", ["render", "circle", "--out", "{tmp}/r", "--fps", "1e-10"], 2,
+     "argument --fps: expected a number >= 0.01 and <= 1000, got '1e-10'"),
+    ("render-out-empty", ["render", "circle", "--out", ""], 2,
+     "argument --out: expected a path, got ''"),
+    ("sweep-out-empty", ["sweep", "{sweep}", "--out", ""], 2,
+     "argument --out: expected a path, got ''"),
+    ("dataset-out-empty", ["dataset", "--n", "1", "--out", ""], 2,
+     "argument --out: expected a path, got ''"),
+    ("bench-json-empty", ["bench", "--n", "2", "--json", ""], 2,
+     "argument --json: expected a path, got ''"),
+    ("model-empty", [*SOLVE, "--model", ""], 2, "argument --model: expected a path, got ''"),
+    ("bench-json-folder", ["bench", "--n", "2", "--solvers", "dls", "--json", "{tmp}/folder"], 2,
+     "cannot write '{tmp}/folder': it is a folder; expected a file path"),
+    ("dataset-out-folder", ["dataset", "--n", "2", "--out", "{tmp}/folder.npz"], 2,
+     "cannot write '{tmp}/folder.npz': it is a folder; expected a file path"),
+    # --- item 5: every size-like input has an upper bound, named in the message
+    ("frames", ["render", "circle", "--out", "{tmp}/r", "--frames", "100001"], 2,
+     "argument --frames: expected an integer >= 1 and <= 100000, got '100001'"),
+    ("width", ["render", "circle", "--out", "{tmp}/r", "--width", "8192"], 2,
+     "argument --width: expected an even integer >= 16 and <= 4096, got '8192'"),
+    ("height", ["render", "circle", "--out", "{tmp}/r", "--height", "100000"], 2,
+     "argument --height: expected an even integer >= 16 and <= 4096, got '100000'"),
+    ("fps-high", ["render", "circle", "--out", "{tmp}/r", "--fps", "1001"], 2,
+     "argument --fps: expected a number >= 0.01 and <= 1000, got '1001'"),
+    ("scene-duration", ["render", "{scene:duration}", "--out", "{tmp}/r"], 2,
+     "duration: expected a number > 0 and <= 3333.33 (at most 100000 frames at 30 fps), "
+     "got 1e+300"),
+    ("scene-long", ["render", "{scene:long}", "--out", "{tmp}/r"], 2,
+     "duration: expected a number > 0 and <= 3333.33"),
+    ("scene-fps", ["render", "{scene:fps}", "--out", "{tmp}/r"], 2,
+     "fps: expected a number >= 0.01 and <= 1000, got 0.001"),
+    ("scene-trail", ["render", "{scene:trail}", "--out", "{tmp}/r"], 2,
+     "render.trail: expected a number >= 0 and <= 60, got 1e+300"),
+    ("scene-width", ["render", "{scene:width}", "--out", "{tmp}/r"], 2,
+     "render.width: expected an even integer >= 16 and <= 4096 (pixels), got 10000"),
+    ("scene-sheet", ["render", "{scene:sheet}", "--out", "{tmp}/r"], 2,
+     "render.contact_sheet: expected an integer >= 0 and <= 100, got 1000000"),
+    ("scene-snapshots", ["render", "{scene:snapshots}", "--out", "{tmp}/r"], 2,
+     "render.snapshots: expected at most 100 times, got 101"),
+    ("scene-interval", ["render", "{scene:interval}", "--out", "{tmp}/r"], 2,
+     "targets[0].motion.interval: expected a number >= 3.97e-05 (a random_walk draws at most "
+     "100000 knots, and this one runs 3.96667 s), got 1e-09"),
+    ("scene-points", ["render", "{scene:points}", "--out", "{tmp}/r"], 2,
+     "targets[0].motion.points: expected at most 10000 points, got 10001"),
+    ("dataset-n", ["dataset", "--n", "99999999999999", "--out", "{tmp}/d.npz"], 2,
+     "argument --n: expected an integer >= 1 and <= 100000000, got '99999999999999'"),
+    ("dataset-chunk", ["dataset", "--n", "5", "--chunk", "10000000", "--out", "{tmp}/d.npz"], 2,
+     "argument --chunk: expected an integer >= 1 and <= 1048576, got '10000000'"),
+    ("bench-n", ["bench", "--n", "1000001"], 2,
+     "argument --n: expected an integer >= 1 and <= 1000000, got '1000001'"),
+    ("sweep-n", ["sweep", "{sweep:n}", "--out", "{tmp}/o"], 2,
+     "targets[0].n: expected an integer >= 1 and <= 1000000, got 1000000000"),
+    ("sweep-frames", ["sweep", "{sweep:frames}", "--out", "{tmp}/o"], 2,
+     "scenes[0].frames: expected an integer >= 1 and <= 100000, got 1000000"),
+    ("sweep-walk-frames", ["sweep", "{sweep:walk-frames}", "--out", "{tmp}/o"], 2,
+     "scenes[0].frames: expected an integer >= 1 and <= 3000, got 5000"),
+    ("sweep-workers", ["sweep", "{sweep}", "--out", "{tmp}/o", "--workers", "100000"], 2,
+     "argument --workers: expected an integer >= 1 and <= 256, got '100000'"),
+    ("sweep-jobs", ["sweep", "{sweep:jobs}", "--out", "{tmp}/o"], 2,
+     "expected at most 100000 jobs (sets x configurations x seeds), got 120000"),
+    ("max-iterations", [*SOLVE, "--option", "max_iterations=1e12"], 2,
+     "option 'max_iterations' of solver 'dls' must be an integer >= 0 and <= 100000, "
+     "got 1000000000000"),
+    ("stall-window", [*SOLVE, "--option", "stall_window=1e12"], 2,
+     "option 'stall_window' of solver 'dls' must be an integer >= 0 and <= 100000"),
+    ("restarts", [*SOLVE, "--solver", "pseudoinverse", "--option", "restarts=1e9"], 2,
+     "option 'restarts' of solver 'pseudoinverse' must be an integer >= 0 and <= 1000"),
+]  # fmt: skip
+"""(id, command arguments, exit status, message fragment): the bad-input table."""
+
+
+@pytest.fixture()
+def files(tmp_path: Path) -> dict[str, str]:
+    """The placeholders of :data:`CASES`, as the files they name."""
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "folder.npz").mkdir()
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(SWEEP)
+    out = {"{tmp}": str(tmp_path), "{sweep}": str(sweep)}
+    circle = (bundled_dir("scenes") / "circle.toml").read_text()
+    for name, (old, new) in SCENE_EDITS.items():
+        assert old in circle, name
+        path = tmp_path / f"scene_{name}.toml"
+        path.write_text(circle.replace(old, new))
+        out[f"{{scene:{name}}}"] = str(path)
+    for name, (old, new) in SWEEP_EDITS.items():
+        assert old in SWEEP, name
+        path = tmp_path / f"sweep_{name}.toml"
+        path.write_text(SWEEP.replace(old, new))
+        out[f"{{sweep:{name}}}"] = str(path)
+    return out
+
+
+def _fill(text: str, files: dict[str, str]) -> str:
+    for key in sorted(files, key=len, reverse=True):
+        text = text.replace(key, files[key])
+    return text
+
+
+def _listing(folder: Path) -> list[str]:
+    """Every path under ``folder`` (hidden files too)."""
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+@pytest.mark.parametrize(
+    ("args", "status", "fragment"), [c[1:] for c in CASES], ids=[c[0] for c in CASES]
+)
+def test_bad_input_is_one_line(capsys, files, tmp_path, args, status, fragment):
+    """Each case: the exit status, one stderr line holding the fragment, no traceback,
+    nothing written (no stray temporary file either)."""
+    before = _listing(tmp_path)
+    code = main([_fill(a, files) for a in args])
+    out, err = capsys.readouterr()
+    assert code == status, err
+    assert err.count("\n") == 1 and err.startswith("humanoid-ik: error: "), err
+    assert _fill(fragment, files) in err, err
+    assert "Traceback" not in err and out == ""
+    assert _listing(tmp_path) == before
+
+
+def test_bench_json_folder_is_refused_before_the_run(capsys, tmp_path):
+    """``bench --json <folder>`` (even the filesystem root's child ``/tmp``-like case: a
+    folder whose parent is writable) is refused before any solve: nothing on stdout, no
+    temporary file beside it or inside it."""
+    folder = tmp_path / "res"
+    folder.mkdir()
+    t0 = time.perf_counter()
+    assert main(["bench", "--n", "500", "--json", str(folder)]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and "it is a folder" in err
+    assert _listing(tmp_path) == ["res"]
+    assert time.perf_counter() - t0 < 60  # refused, not benchmarked (500 targets x 7 solvers)
+
+
+def test_damaged_job_record_runs_again_with_a_note(capsys, tmp_path):
+    """A job record cut down to ``{"status": "ok"}`` does not break the resume: the job
+    runs again (with a note naming the file) and its record is whole again."""
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(SWEEP)
+    out = tmp_path / "o"
+    argv = ["sweep", str(sweep), "--out", str(out), "--workers", "1", "--no-plot"]
+    assert main(argv) == 0
+    (record,) = (out / "jobs").glob("*.json")
+    whole = json.loads(record.read_text())
+    capsys.readouterr()
+    for damage in ('{"status": "ok"}', "[1, 2]", "{not json", json.dumps({**whole, "id": "x"})):
+        record.write_text(damage)
+        assert main(argv) == 0
+        stdout, err = capsys.readouterr()
+        assert "1 job(s), 0 already done, 1 to run" in stdout
+        assert f"humanoid-ik: note: {record} is not a whole job record" in err
+        assert "that job runs again" in err and "Traceback" not in err
+        again = json.loads(record.read_text())
+        assert again["status"] == "ok" and again["id"] == whole["id"]
+    assert main(argv) == 0
+    assert "1 already done, 0 to run" in capsys.readouterr().out
+
+
+def test_jacobian_step_that_overflows_ends_the_start():
+    """A step rule whose step is not finite (what an absurd option did) gives a finite,
+    not-converged answer instead of NaN joints and a LinAlgError."""
+
+    class Overflowing(DLS):
+        def _step(self, J, e):
+            return np.full(J.shape[1], np.inf)
+
+    chain = Chain()
+    res = Overflowing(nullspace_gain=0.5, restarts=2).solve(chain, Target([0.3, -0.3, 1.1]))
+    assert not res.converged and np.all(np.isfinite(res.q))
+
+
+def test_motion_bounds_in_the_library():
+    """The library refuses the same sizes: a random walk past its knots, too many points."""
+    walk = RandomWalk([0.4, -0.3, 1.2], [0.1, 0.1, 0.1], interval=1e-9)
+    assert walk.horizon == pytest.approx((MAX_KNOTS - 3) * 1e-9)
+    with pytest.raises(Exception, match=r"t: expected a time <= .* at most 100000 knots"):
+        walk.position(1.0)
+    assert len(walk._knots) < 10
+    with pytest.raises(Exception, match="points: expected at most 10000 points, got 10001"):
+        Points([[0.0, 0.0, 0.0]] * 10_001)
+
+
+SUBPROCESS_CASES = [
+    (["bench", "--n", "2", "--solvers", "dls", "--seed", "-1"], 2, "expected an integer >= 0"),
+    ([*SOLVE, "--solver", "pseudoinverse", "--option", "nullspace_gain=1e308"], 2, "<= 1"),
+    (["render", "circle", "--fps", "1e-10"], 2, "--fps: expected a number >= 0.01 and <= 1000"),
+]
+
+
+def _cli(args: list[str], cwd: Path, timeout: float = 120) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    return subprocess.run(
+        [sys.executable, "-m", "humanoid_ik", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
+        check=False,
+    )
+
+
+@pytest.mark.parametrize(("args", "status", "fragment"), SUBPROCESS_CASES)
+def test_bad_input_in_a_real_process(tmp_path, args, status, fragment):
+    """A few of the table as real processes: exit status, one line, no traceback."""
+    proc = _cli(args, tmp_path)
+    assert proc.returncode == status, proc.stderr
+    assert proc.stderr.count("\n") == 1 and fragment in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_ray_address_where_nothing_answers_fails_soon(tmp_path):
+    """``--ray 127.0.0.1:1`` (nothing listens) fails in one line within a minute instead
+    of waiting for minutes."""
+    pytest.importorskip("ray")
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(SWEEP)
+    t0 = time.monotonic()
+    proc = _cli(["sweep", str(sweep), "--out", str(tmp_path / "o"), "--ray", "127.0.0.1:1"],
+                tmp_path, timeout=180)  # fmt: skip
+    assert time.monotonic() - t0 < 60
+    assert proc.returncode == 2, proc.stderr
+    err = proc.stderr.strip().splitlines()
+    assert err[-1].startswith("humanoid-ik: error: cannot connect to Ray at '127.0.0.1:1': ")
+    assert len(err) == 1 and "Traceback" not in proc.stderr, proc.stderr
