@@ -240,3 +240,15 @@ def test_path_joint_ids_reach_the_world():
     assert names[: chain.n] == chain.joint_names[::-1]
     assert len(names) == chain.n + 1
     assert m.jnt_type[chain.path_joint_ids[-1]] == mujoco.mjtJoint.mjJNT_FREE
+
+
+def test_base_state_follows_the_joints_off_the_chain():
+    """``base_state`` reads the path's joints outside the chain (the robot's floating
+    base: 7 numbers) and is ``None`` when nothing moves the chain's base."""
+    robot = Path(__file__).resolve().parents[1] / "models" / "robot" / "robot.xml"
+    chain = Chain(robot, "right_hand_site")
+    before = chain.base_state()
+    assert before is not None and len(before) == 7
+    chain.data.qpos[0] += 0.25  # the free joint's x
+    assert chain.base_state() == [before[0] + 0.25, *before[1:]]
+    assert Chain().base_state() is None

@@ -122,6 +122,31 @@ class Chain:
         self._dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
         self._J = self._jac[:, self._dof_slice] if contiguous else np.zeros((6, self.n))
         self._derived: dict[Hashable, Any] = {}
+        self._base_qpos = self._qpos_off_chain()
+
+    def _qpos_off_chain(self) -> slice | NDArray[np.int64] | None:
+        """``qpos`` addresses of the path's joints outside the chain (a floating base, a
+        torso hinge): a slice where they follow each other, ``None`` when there is none."""
+        m = self.model
+        mine = set(self.joint_ids.tolist())
+        sizes = {int(mujoco.mjtJoint.mjJNT_FREE): 7, int(mujoco.mjtJoint.mjJNT_BALL): 4}
+        idx: list[int] = []
+        for j in self.path_joint_ids.tolist():
+            if j not in mine:
+                start = int(m.jnt_qposadr[j])
+                idx += range(start, start + sizes.get(int(m.jnt_type[j]), 1))
+        if not idx:
+            return None
+        idx.sort()
+        if idx[-1] - idx[0] == len(idx) - 1:
+            return slice(idx[0], idx[-1] + 1)
+        return np.array(idx, dtype=np.int64)
+
+    def base_state(self) -> list[float] | None:
+        """The scratch ``qpos`` of the path's joints outside the chain, which move the
+        chain's base (``None`` when nothing does): what a cache of world-frame geometry
+        compares to know whether it is still current."""
+        return None if self._base_qpos is None else self.data.qpos[self._base_qpos].tolist()
 
     @classmethod
     def from_xml_string(

@@ -14,7 +14,6 @@ import math
 from collections.abc import Callable
 from typing import NamedTuple
 
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -369,13 +368,6 @@ class ArmCache:
     def __init__(self, chain: Chain):
         self.reason = structure_problem(chain)
         """Why the closed form does not apply to the chain, or ``None``."""
-        idx = _qpos_moving_the_arm(chain)
-        contiguous = idx.size and idx[-1] - idx[0] == idx.size - 1
-        self.watch = (
-            slice(int(idx[0]), int(idx[-1]) + 1) if contiguous else idx if idx.size else None
-        )
-        """``qpos`` addresses of those joints, a slice where they follow each other
-        (``None``: nothing moves the arm)."""
         self.seen: list[float] | None = None
         self.context: ArmContext | None = None
 
@@ -387,25 +379,11 @@ class ArmCache:
         """
         if self.reason is not None:
             raise SolverError(self.reason)
-        seen = None if self.watch is None else chain.data.qpos[self.watch].tolist()
+        seen = chain.base_state()
         if self.context is None or seen != self.seen:
             self.context = ArmContext(read_geometry(chain), chain.lower, chain.upper)
             self.seen = seen
         return self.context
-
-
-def _qpos_moving_the_arm(chain: Chain) -> NDArray[np.int64]:
-    """``qpos`` addresses of the joints between the world and the end effector's body
-    that are not in the chain (sorted)."""
-    m = chain.model
-    mine = set(chain.joint_ids.tolist())
-    sizes = {int(mujoco.mjtJoint.mjJNT_FREE): 7, int(mujoco.mjtJoint.mjJNT_BALL): 4}
-    idx: list[int] = []
-    for j in chain.path_joint_ids.tolist():
-        if j not in mine:
-            start = int(m.jnt_qposadr[j])
-            idx += range(start, start + sizes.get(int(m.jnt_type[j]), 1))
-    return np.array(sorted(idx), dtype=np.int64)
 
 
 def arm_cache(chain: Chain) -> ArmCache:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -301,12 +300,6 @@ class LimbCache:
     def __init__(self, chain: Chain):
         self.k, self.reason = read_structure(chain)
         """Shoulder hinges, and why ``two_link`` does not apply (``None`` if it does)."""
-        idx = _qpos_moving_the_limb(chain)
-        contiguous = idx.size and idx[-1] - idx[0] == idx.size - 1
-        self.watch = (
-            slice(int(idx[0]), int(idx[-1]) + 1) if contiguous else idx if idx.size else None
-        )
-        """``qpos`` addresses of those joints (``None``: nothing moves the limb)."""
         self.seen: list[float] | None = None
         self.context: LimbContext | None = None
 
@@ -318,25 +311,11 @@ class LimbCache:
         """
         if self.reason is not None:
             raise SolverError(self.reason)
-        seen = None if self.watch is None else chain.data.qpos[self.watch].tolist()
+        seen = chain.base_state()
         if self.context is None or seen != self.seen:
             self.context = LimbContext(chain, self.k)
             self.seen = seen
         return self.context
-
-
-def _qpos_moving_the_limb(chain: Chain) -> NDArray[np.int64]:
-    """``qpos`` addresses of the joints between the world and the end effector's body
-    that are not in the chain (sorted)."""
-    m = chain.model
-    mine = set(chain.joint_ids.tolist())
-    sizes = {int(mujoco.mjtJoint.mjJNT_FREE): 7, int(mujoco.mjtJoint.mjJNT_BALL): 4}
-    idx: list[int] = []
-    for j in chain.path_joint_ids.tolist():
-        if j not in mine:
-            start = int(m.jnt_qposadr[j])
-            idx += range(start, start + sizes.get(int(m.jnt_type[j]), 1))
-    return np.array(sorted(idx), dtype=np.int64)
 
 
 def limb_cache(chain: Chain) -> LimbCache:
