@@ -308,6 +308,7 @@ def test_bad_input_in_a_real_process(tmp_path, args, status, fragment):
     assert "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_ray_address_where_nothing_answers_fails_soon(tmp_path):
     """``--ray 127.0.0.1:1`` (nothing listens) fails in one line within a minute instead
     of waiting for minutes."""

@@ -249,6 +249,7 @@ def test_kinds_of_chain():
 
 
 # ------------------------------------------------------------------------------ planar, 2-hinge
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(PLANAR_AND_TWO))
 def test_oracle_planar_and_two_hinge(name):
     """Planar and two-hinge chains: every numeric root found, none extra, ranges flagged right."""
@@ -392,6 +393,7 @@ def _feasible_twists(ch: Chain, sc: Screws, target: NDArray, qe: float, N: int):
     return deltas, ok, R0, n
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(THREE))
 def test_oracle_three_hinge(name):
     """Three-hinge chains: reached iff a sampled twist fits, at the feasible twist nearest."""
