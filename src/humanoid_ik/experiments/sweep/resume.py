@@ -56,15 +56,8 @@ def _result_path(out: Path, job: Job) -> Path:
     return out / _RESULTS / f"{job.id}.json"
 
 
-_NUMBERS = (
-    "success_rate",
-    "max_error_m",
-    "median_error_m",
-    "max_orientation_error_rad",
-    "median_solve_ms",
-    "wall_s",
-)
-"""Record columns holding a number or ``null``."""
+_NUMBERS = COLUMNS[COLUMNS.index("success_rate") :]
+"""Record columns holding a number or ``null``: the results, from ``success_rate`` on."""
 
 
 def _problem(rec: Any, job: Job) -> str | None:
