@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 from collections.abc import Callable, Hashable, Sequence
 from typing import Any, TypeVar
 
@@ -18,6 +19,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from humanoid_ik.core.checks import float_array
 from humanoid_ik.core.models import home_qpos, load_model, reset_to_home
 from humanoid_ik.errors import (
     ChainError,
@@ -38,6 +40,42 @@ _JOINT_TYPE_NAMES = {
     mujoco.mjtJoint.mjJNT_SLIDE: "slide",
     mujoco.mjtJoint.mjJNT_HINGE: "hinge",
 }
+
+
+# what the chain and the caches derived from it read from the model: when one of these
+# changes on a live MjModel, the chain re-reads its ranges and drops its caches (sync)
+_KINEMATIC_FIELDS = (
+    "jnt_range",
+    "jnt_limited",
+    "jnt_axis",
+    "jnt_pos",
+    "body_pos",
+    "body_quat",
+    "site_pos",
+    "site_quat",
+    "qpos0",
+)
+# what makes an MjData fit a model: its joints, in order, and the tree they move
+_STRUCTURE_FIELDS = ("jnt_type", "jnt_qposadr", "jnt_bodyid", "body_parentid")
+
+
+def _snapshot(model: mujoco.MjModel, fields: Sequence[str]) -> tuple[bytes, ...]:
+    return tuple(getattr(model, f).tobytes() for f in fields)
+
+
+def _check_args(model: Any, site: Any, body: Any, joints: Any) -> None:
+    """One :class:`ChainError` for a model, end effector or joint list of the wrong type."""
+    if model is not None and not isinstance(model, (mujoco.MjModel, str, os.PathLike)):
+        raise ChainError(
+            f"model must be a mujoco.MjModel or a model file path, got {type(model).__name__}"
+        )
+    for what, value in (("site", site), ("body", body)):
+        if value is not None and not isinstance(value, str):
+            raise ChainError(f"{what} must be a name (a string), got {value!r}")
+    if joints is None or isinstance(joints, str):
+        return
+    if not isinstance(joints, Sequence) or not all(isinstance(j, str) for j in joints):
+        raise ChainError(f"joints must be a list of joint names, got {joints!r}")
 
 
 def _names(model: mujoco.MjModel, objtype: mujoco.mjtObj, count: int) -> list[str]:
@@ -72,6 +110,7 @@ class Chain:
         *,
         body: str | None = None,
     ):
+        _check_args(model, site, body, joints)
         self.model = load_model(model)
         m = self.model
         if site is not None and body is not None:
@@ -106,13 +145,13 @@ class Chain:
         ]
         self.qpos_adr = m.jnt_qposadr[self.joint_ids].astype(np.int64)
         self.dof_adr = m.jnt_dofadr[self.joint_ids].astype(np.int64)
-        limited = m.jnt_limited[self.joint_ids].astype(bool)
-        rng = m.jnt_range[self.joint_ids]
-        self.lower = np.where(limited, rng[:, 0], -np.inf)
-        self.upper = np.where(limited, rng[:, 1], np.inf)
+        self._read_ranges()
         self.data = mujoco.MjData(m)
         self.q_home = self._home()
         self.reset()
+        self._kinematics = _snapshot(m, _KINEMATIC_FIELDS)
+        self._structure = _snapshot(m, _STRUCTURE_FIELDS)
+        self._busy = threading.Lock()
         # (6, nv) Jacobian buffer; rows 0-2 and 3-5 are C-contiguous views for mj_jacSite
         self._jac = np.zeros((6, m.nv))
         self._jacp, self._jacr = self._jac[:3], self._jac[3:]
@@ -123,6 +162,57 @@ class Chain:
         self._J = self._jac[:, self._dof_slice] if contiguous else np.zeros((6, self.n))
         self._derived: dict[Hashable, Any] = {}
         self._base_qpos = self._qpos_off_chain()
+
+    def _read_ranges(self) -> None:
+        m = self.model
+        limited = m.jnt_limited[self.joint_ids].astype(bool)
+        rng = m.jnt_range[self.joint_ids]
+        self.lower = np.where(limited, rng[:, 0], -np.inf)
+        self.upper = np.where(limited, rng[:, 1], np.inf)
+
+    def sync(self) -> bool:
+        """Follow changes made to the live ``MjModel`` since the chain last looked (joint
+        ranges, axes, body and site placements, ``qpos0``): re-read the ranges and the home
+        pose and drop every :meth:`derived` cache. Every solve calls it; cheap when nothing
+        changed (a byte comparison of those arrays).
+
+        Returns:
+            True when the model had changed.
+        """
+        now = _snapshot(self.model, _KINEMATIC_FIELDS)
+        if now == self._kinematics:
+            return False
+        self.refresh(now)
+        return True
+
+    def refresh(self, snapshot: tuple[bytes, ...] | None = None) -> None:
+        """Re-read everything the chain took from the model and drop the caches derived
+        from it (see :meth:`sync`, which calls this when the model changed)."""
+        self._kinematics = snapshot or _snapshot(self.model, _KINEMATIC_FIELDS)
+        self._read_ranges()
+        self._derived.clear()
+        q = self.q
+        self.q_home = self._home()
+        self.set_q(self.clip(q))
+
+    def claim(self) -> None:
+        """Mark the chain busy for one solve (:meth:`release` ends it).
+
+        A chain holds scratch data, so one chain serves one thread at a time: give each
+        thread its own ``Chain`` (cheap), or guard a shared one with a lock.
+
+        Raises:
+            ChainError: another thread is solving on this chain right now.
+        """
+        if not self._busy.acquire(blocking=False):
+            raise ChainError(
+                f"{self!r} is in use by another thread; give each thread its own Chain "
+                "or guard a shared one with a lock"
+            )
+
+    def release(self) -> None:
+        """End the solve that :meth:`claim` began."""
+        self._busy.release()
 
     def _qpos_off_chain(self) -> slice | NDArray[np.int64] | None:
         """``qpos`` addresses of the path's joints outside the chain (a floating base, a
@@ -181,9 +271,10 @@ class Chain:
         """A value derived from the chain's fixed kinematics, built by ``build(self)`` on
         the first call for ``key`` and kept for the chain's life.
 
-        The rule: a chain's model, joints and ranges are fixed when it is made, so what is
-        computed from them alone (a solver's seed poses, its geometry) never goes stale;
-        ``build`` must leave the scratch data's joint values as it found them.
+        The rule: what is computed from the chain's joints and the model's kinematics alone
+        (a solver's seed poses, its geometry) stays valid until the model changes, and
+        :meth:`sync` (run by every solve) drops it then; ``build`` must leave the scratch
+        data's joint values as it found them.
         """
         if key not in self._derived:
             self._derived[key] = build(self)
@@ -287,7 +378,7 @@ class Chain:
         Raises:
             TargetError: wrong shape or NaN/inf.
         """
-        arr = np.asarray(q, dtype=np.float64)
+        arr = float_array("joint vector", q)
         if arr.shape != (self.n,):
             raise TargetError(f"joint vector must have shape ({self.n},), got {arr.shape}")
         if not np.all(np.isfinite(arr)):
@@ -331,22 +422,50 @@ class Chain:
         """Copy the caller's ``qpos`` (every joint) into the scratch data. ``data`` is only read.
 
         Raises:
-            ChainError: ``data`` belongs to a model of another size.
+            ChainError: ``data`` belongs to another model.
         """
-        if data.qpos.shape != self.data.qpos.shape:
-            raise ChainError(
-                f"MjData has nq={data.qpos.shape[0]}, the chain's model has nq={self.model.nq}"
-            )
+        self.check_data(data)
         self.data.qpos[:] = data.qpos
         self.data.mocap_pos[:] = data.mocap_pos
         self.data.mocap_quat[:] = data.mocap_quat
         mujoco.mj_kinematics(self.model, self.data)
 
+    def check_data(self, data: mujoco.MjData) -> None:
+        """Refuse an ``MjData`` made for another model: one of another size, or of a model
+        whose joints or tree differ (an ``MjData`` of a copy of the same model is fine).
+
+        Raises:
+            ChainError: ``data`` is not an ``MjData`` of a model like the chain's.
+        """
+        if not isinstance(data, mujoco.MjData):
+            raise ChainError(f"expected a mujoco.MjData, got {type(data).__name__}")
+        other = data.model
+        if other is self.model:
+            return
+        if other.nq != self.model.nq or other.njnt != self.model.njnt:
+            raise ChainError(
+                f"MjData has nq={other.nq} and {other.njnt} joints, the chain's model has "
+                f"nq={self.model.nq} and {self.model.njnt}: it belongs to another model"
+            )
+        if _snapshot(other, _STRUCTURE_FIELDS) != self._structure or _names(
+            other, mujoco.mjtObj.mjOBJ_JOINT, other.njnt
+        ) != _names(self.model, mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt):
+            raise ChainError(
+                "MjData belongs to another model (its joints or bodies differ from the "
+                "chain's); make it with mujoco.MjData(chain.model)"
+            )
+
     def apply(self, q: ArrayLike, data: mujoco.MjData) -> None:
-        """Write chain joints ``q`` into the caller's ``data`` and run ``mj_forward`` on it."""
+        """Write chain joints ``q`` into the caller's ``data`` and run ``mj_forward`` on it.
+
+        Raises:
+            ChainError: ``data`` belongs to another model (it is left unchanged).
+            TargetError: a bad ``q``.
+        """
+        self.check_data(data)
         qq = self.check_q(q)
         data.qpos[self.qpos_adr] = qq
-        mujoco.mj_forward(self.model, data)
+        mujoco.mj_forward(data.model, data)
 
     # ----------------------------------------------------------------- limits
     def clip(self, q: ArrayLike) -> NDArray[np.float64]:

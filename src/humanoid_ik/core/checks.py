@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.errors import TrajectoryError
+from humanoid_ik.errors import TargetError, TrajectoryError
 
 MAX_POINTS = 10_000
 """Most points a motion's ``points`` list may hold (``points``, ``waypoints``)."""
@@ -36,6 +36,7 @@ __all__ = [
     "check_number",
     "check_points",
     "check_vector",
+    "float_array",
 ]
 
 
@@ -167,3 +168,20 @@ def check_choice(name: str, value: Any, valid: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in valid:
         raise TrajectoryError(name, f"one of {', '.join(repr(v) for v in valid)}", value)
     return value
+
+
+def float_array(what: str, value: Any) -> NDArray[np.float64]:
+    """``value`` as a new float64 array (any shape; the caller checks it), or a
+    :class:`~humanoid_ik.errors.TargetError` naming ``what`` when it holds something
+    that is not a number (a string, ``None`` inside a list, an object).
+
+    The library's entry points take targets, quaternions and joint vectors through it,
+    so a wrong type is one error of the package, never a bare ``ValueError``."""
+    if isinstance(value, (str, bytes)):
+        raise TargetError(f"{what} must be numbers, got the text {value!r}")
+    try:
+        return np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        shown = repr(value)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        raise TargetError(f"{what} must be numbers, got {shown}") from None

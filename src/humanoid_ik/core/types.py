@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from humanoid_ik.core.checks import float_array
 from humanoid_ik.errors import TargetError
 
 if TYPE_CHECKING:
@@ -51,7 +52,7 @@ class Target:
     rotation: NDArray[np.float64] | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        p = np.array(self.position, dtype=np.float64)
+        p = float_array("target position", self.position)
         if p.shape != (3,):
             raise TargetError(f"target position must have 3 values (x, y, z), got shape {p.shape}")
         if not np.all(np.isfinite(p)):
@@ -66,7 +67,7 @@ class Target:
         if self.quat is None:
             object.__setattr__(self, "rotation", None)
             return
-        q = normalize_quat(self.quat)
+        q = normalize_quat(float_array("quaternion", self.quat))
         q.setflags(write=False)
         R = quat_to_mat(q)
         R.setflags(write=False)
@@ -76,10 +77,10 @@ class Target:
     @classmethod
     def of(cls, target: Target | ArrayLike, quat: ArrayLike | None = None) -> Target:
         """A ``Target`` from a ``Target`` or a position (and an optional quaternion)."""
-        q = None if quat is None else np.asarray(quat, dtype=np.float64)
+        q = None if quat is None else float_array("quaternion", quat)
         if isinstance(target, Target):
             return target if q is None else cls(target.position, q)
-        return cls(np.asarray(target, dtype=np.float64), q)
+        return cls(float_array("target position", target), q)
 
     @property
     def is_pose(self) -> bool:

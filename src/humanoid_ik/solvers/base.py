@@ -112,19 +112,25 @@ class Solver(ABC):
     ) -> IKResult:
         """Solve from ``q0`` (default: the chain's current joint values, moved inside ranges).
 
-        Works on the chain's scratch data; leaves it at the returned pose.
+        Works on the chain's scratch data; leaves it at the returned pose. Follows changes
+        to the live model first (:meth:`Chain.sync`).
 
         Raises:
             TargetError: a bad target or ``q0``.
             SolverError: the solver does not apply to this chain or task.
+            ChainError: another thread is solving on the same chain.
         """
         tgt = Target.of(target)
-        reason = self.applicable(chain, tgt.is_pose)
-        if reason is not None:
-            raise SolverError(reason)
-        start = chain.q if q0 is None else chain.check_q(q0)
-        result = self._solve(chain, tgt, chain.clip(start))
-        return result
+        chain.claim()
+        try:
+            chain.sync()
+            reason = self.applicable(chain, tgt.is_pose)
+            if reason is not None:
+                raise SolverError(reason)
+            start = chain.q if q0 is None else chain.check_q(q0)
+            return self._solve(chain, tgt, chain.clip(start))
+        finally:
+            chain.release()
 
     @abstractmethod
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:

@@ -72,6 +72,11 @@ def solve(
         HumanoidIKError: a bad target, solver name or option; ``data`` is then unchanged.
     """
     tgt = Target.of(target, quat)
+    if not isinstance(solver, (str, Solver)):
+        raise SolverError(
+            f"solver must be a solver name or a Solver, got {type(solver).__name__}; "
+            f"solvers: {', '.join(sorted(SOLVERS))}"
+        )
     s = make_solver(solver, **options) if isinstance(solver, str) else solver
     if data is not None:
         chain.load(data)
