@@ -36,7 +36,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import tempfile
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -49,7 +48,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.models import display_model
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.errors import DatasetError, HumanoidIKError
-from humanoid_ik.outputs.atomic import atomic_path
+from humanoid_ik.outputs.atomic import atomic_dir, atomic_path
 
 __all__ = [
     "BLOCK",
@@ -186,10 +185,10 @@ def write_dataset(
         "units": {"positions": "m", "q": "rad"},
     }
     n, seed = int(n), int(seed)
-    with tempfile.TemporaryDirectory(prefix=f".{out.name}.", dir=out.parent) as tmpdir:
-        _write_chunks(chain, n, seed, chunk, Path(tmpdir), progress)
+    with atomic_dir(out) as tmpdir:
+        _write_chunks(chain, n, seed, chunk, tmpdir, progress)
         with atomic_path(out) as tmp_zip:
-            _pack(Path(tmpdir), tmp_zip, n, chain.n, meta)
+            _pack(tmpdir, tmp_zip, n, chain.n, meta)
     return out
 
 

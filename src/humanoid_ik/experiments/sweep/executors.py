@@ -15,10 +15,14 @@ is imported; a Ray imported before keeps its own timeouts).
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing as mp
 import os
+import signal
 import sys
 import tempfile
+import threading
+import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
@@ -27,6 +31,7 @@ from typing import Any
 from humanoid_ik.config.sweep_file import Job
 from humanoid_ik.errors import SweepError
 from humanoid_ik.experiments.sweep.jobs import failed_record, run_job
+from humanoid_ik.outputs.atomic import pid_alive
 
 __all__ = [
     "MAX_WORKERS",
@@ -34,6 +39,7 @@ __all__ = [
     "RAY_CONNECT_ENV",
     "RAY_CONNECT_TIMEOUT_S",
     "OnDone",
+    "die_with",
     "import_ray",
     "run_local",
     "run_ray",
@@ -61,14 +67,62 @@ RAY_CONNECT_ENV = {
 of :data:`RAY_CONNECT_TIMEOUT_S` seconds (plus Ray's fixed 5 s connection checks)."""
 
 
-def run_local(jobs: Sequence[Job], workers: int, on_done: OnDone) -> None:
+WATCH_INTERVAL_S = 0.25
+"""How often a worker checks that the process that started the sweep is alive [s]."""
+
+
+def die_with(owner: int) -> None:
+    """Make this process (a pool worker) end when process ``owner`` ends, however it
+    ends, SIGKILL included: the kernel kills it with its parent (the forkserver) where
+    Linux's ``PR_SET_PDEATHSIG`` is available, and a daemon thread checks ``owner``
+    every :data:`WATCH_INTERVAL_S` seconds; when ``owner`` is gone the worker stops the
+    forkserver that forked it and exits, so nothing outlives the sweep or keeps the
+    caller's stdout and stderr open."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+    def watch() -> None:
+        while pid_alive(owner):
+            time.sleep(WATCH_INTERVAL_S)
+        parent = os.getppid()
+        if parent not in (1, owner):
+            try:
+                os.kill(parent, signal.SIGKILL)
+            except OSError:
+                pass
+        os._exit(1)
+
+    threading.Thread(target=watch, name="die-with-sweep", daemon=True).start()
+
+
+def run_local(
+    jobs: Sequence[Job], workers: int, on_done: OnDone, log: str | os.PathLike | None = None
+) -> None:
     """Run ``jobs`` on ``workers`` local processes (forkserver, see :data:`PRELOAD`).
 
-    Ctrl-C cancels the jobs not yet started and is raised again.
+    The workers end with this process whatever ends it (:func:`die_with`). Ctrl-C
+    cancels the jobs not yet started and is raised again.
+
+    Args:
+        jobs, workers, on_done: what to run, on how many processes, and the callback.
+        log: a file that receives what the forkserver and its workers print (a worker
+            being forked while the sweep is interrupted prints a traceback there, not
+            on the caller's terminal); ``None`` leaves them the caller's stderr. Only a
+            forkserver started by this call is redirected.
     """
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(list(PRELOAD))
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+    if log is not None:
+        with open(log, "ab") as f, _stderr_into(f.fileno()):
+            from multiprocessing import forkserver, resource_tracker
+
+            resource_tracker.ensure_running()
+            forkserver.ensure_running()
+    with ProcessPoolExecutor(
+        max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(os.getpid(),)
+    ) as pool:
         pending = {pool.submit(run_job, job): job for job in jobs}
         try:
             while pending:
@@ -99,20 +153,29 @@ def _environment(values: Mapping[str, str]) -> Iterator[None]:
 
 
 @contextmanager
+def _stderr_into(fd: int) -> Iterator[None]:
+    """File descriptor 2 sent to ``fd`` for the block (processes started in it keep it)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    os.dup2(fd, 2)
+    try:
+        yield
+    finally:
+        sys.stderr.flush()
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+@contextmanager
 def _stderr_held() -> Iterator[list[str]]:
     """File descriptor 2 sent to a temporary file for the block (what Ray's C++ side
     prints while it connects); the text held is appended to the yielded list."""
-    sys.stderr.flush()
-    saved = os.dup(2)
     held: list[str] = []
     with tempfile.TemporaryFile() as tmp:
-        os.dup2(tmp.fileno(), 2)
         try:
-            yield held
+            with _stderr_into(tmp.fileno()):
+                yield held
         finally:
-            sys.stderr.flush()
-            os.dup2(saved, 2)
-            os.close(saved)
             tmp.seek(0)
             held.append(tmp.read().decode(errors="replace"))
 

@@ -22,10 +22,12 @@ from humanoid_ik.experiments.sweep.jobs import COLUMNS
 from humanoid_ik.experiments.sweep.summary import plot_summary, status_counts, write_summary
 from humanoid_ik.outputs.atomic import write_json
 
-__all__ = ["SweepResult", "damaged_records", "read_records", "run_sweep"]
+__all__ = ["WORKER_LOG", "SweepResult", "damaged_records", "read_records", "run_sweep"]
 
 _RESULTS = "jobs"
 """The folder under ``out`` of the job records."""
+WORKER_LOG = "workers.log"
+"""The file under ``out`` that receives what the local pool's processes print."""
 
 
 @dataclass(frozen=True)
@@ -200,7 +202,9 @@ def run_sweep(
 
     if todo:
         if ray_address is None:
-            run_local(todo, min(workers or os.cpu_count() or 1, len(todo)), on_done)
+            run_local(
+                todo, min(workers or os.cpu_count() or 1, len(todo)), on_done, out / WORKER_LOG
+            )
         else:
             run_ray(todo, workers, ray_address, on_done)
     wall = time.perf_counter() - t0

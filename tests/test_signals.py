@@ -1,0 +1,207 @@
+"""Runs stopped by real signals (issue 14, items 2 and 6): sweeps, datasets and renders
+killed with SIGINT, SIGTERM or SIGKILL leave no process alive and no temporary file after
+the next run, and end with the conventional status and one line."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from humanoid_ik.core.models import bundled_dir
+from humanoid_ik.experiments.dataset import read_dataset
+from humanoid_ik.outputs.atomic import atomic_dir, atomic_path, remove_stale
+
+SWEEP = bundled_dir("sweeps") / "compare_solvers.toml"
+STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}
+MESSAGE = {signal.SIGINT: "humanoid-ik: interrupted", signal.SIGTERM: "humanoid-ik: terminated"}
+
+
+def _start(args: list[str], tag: str) -> subprocess.Popen:
+    env = {**os.environ, "HUMANOID_IK_TEST_TAG": tag, "MUJOCO_GL": "egl"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "humanoid_ik", *args],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+
+
+def _tagged(tag: str) -> list[int]:
+    """Processes alive whose environment carries ``tag`` (the run and all it started)."""
+    needle = f"HUMANOID_IK_TEST_TAG={tag}".encode()
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            if needle in (entry / "environ").read_bytes().split(b"\0"):
+                state = (entry / "stat").read_bytes().rsplit(b")", 1)[1].split()[0]
+                if state != b"Z":
+                    pids.append(int(entry.name))
+        except OSError:
+            continue
+    return pids
+
+
+def _none_left(tag: str, within: float = 10.0) -> list[int]:
+    deadline = time.monotonic() + within
+    while (alive := _tagged(tag)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    for pid in alive:  # do not leave them to the next test
+        os.kill(pid, signal.SIGKILL)
+    return alive
+
+
+def _wait_for(path: Path, within: float = 60.0) -> None:
+    deadline = time.monotonic() + within
+    while not path.exists():
+        assert time.monotonic() < deadline, f"{path} never appeared"
+        time.sleep(0.05)
+
+
+def _temporaries(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.rglob(".*") if ".tmp" in p.name)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
+def test_killed_sweep_leaves_no_worker_and_frees_the_callers_pipes(tmp_path, sig):
+    tag = uuid.uuid4().hex
+    proc = _start(["sweep", str(SWEEP), "--workers", "2", "--out", str(tmp_path)], tag)
+    _wait_for(tmp_path / "workers.log")
+    time.sleep(1.0)  # the pool's workers are running jobs
+    assert len(_tagged(tag)) >= 3  # the sweep, its forkserver and workers
+    proc.send_signal(sig)
+    # communicate returns only when every holder of the pipes is gone
+    _out, err = proc.communicate(timeout=30)
+    assert _none_left(tag) == []
+    if sig == signal.SIGKILL:
+        assert proc.returncode == -signal.SIGKILL
+    else:
+        assert proc.returncode == STATUS[sig]
+        lines = err.decode().strip().splitlines()
+        assert lines[-1] == MESSAGE[sig] and "Traceback" not in err.decode()
+
+
+@pytest.mark.slow
+def test_dataset_killed_leaves_temporaries_that_the_next_run_removes(tmp_path):
+    out = tmp_path / "pairs.npz"
+    tag = uuid.uuid4().hex
+    proc = _start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], tag)
+    deadline = time.monotonic() + 60
+    while not _temporaries(tmp_path) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _temporaries(tmp_path), "the dataset never started writing"
+    proc.kill()
+    proc.communicate(timeout=30)
+    assert not out.exists() and _temporaries(tmp_path)  # what SIGKILL leaves behind
+    done = subprocess.run(
+        [sys.executable, "-m", "humanoid_ik", "dataset", "--n", "100", "--out", str(out)],
+        capture_output=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert _temporaries(tmp_path) == []
+    assert read_dataset(out).positions.shape == (100, 3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_dataset_stopped_by_a_signal_removes_its_temporaries(tmp_path, sig):
+    out = tmp_path / "pairs.npz"
+    proc = _start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], "x")
+    deadline = time.monotonic() + 60
+    while not _temporaries(tmp_path) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    _out, err = proc.communicate(timeout=30)
+    assert proc.returncode == STATUS[sig]
+    assert err.decode().strip().splitlines()[-1] == MESSAGE[sig]
+    assert _temporaries(tmp_path) == [] and not out.exists()
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    return proc.pid
+
+
+def test_remove_stale_removes_only_temporaries_of_dead_writers(tmp_path):
+    final = tmp_path / "showcase.mp4"
+    dead = _dead_pid()
+    stale_file = tmp_path / f".showcase.{dead}.140000.tmp.mp4"
+    stale_dir = tmp_path / f".showcase.{dead}.140000.tmpdir"
+    live_file = tmp_path / f".showcase.{os.getpid()}.1.tmp.mp4"
+    other = tmp_path / f".other.{dead}.1.tmp.mp4"
+    stale_file.write_bytes(b"x")
+    stale_dir.mkdir()
+    (stale_dir / "chunk").write_bytes(b"y")
+    live_file.write_bytes(b"z")
+    other.write_bytes(b"w")
+    assert sorted(remove_stale(final)) == sorted([stale_file, stale_dir])
+    assert live_file.exists() and other.exists() and not stale_dir.exists()
+    with atomic_path(tmp_path / "other.mp4") as tmp:  # every atomic write cleans first
+        tmp.write_bytes(b"v")
+    assert not other.exists() and (tmp_path / "other.mp4").read_bytes() == b"v"
+
+
+def test_atomic_dir_is_removed_when_its_block_fails(tmp_path):
+    with pytest.raises(RuntimeError), atomic_dir(tmp_path / "data.npz") as scratch:
+        (scratch / "part").write_bytes(b"1")
+        raise RuntimeError("stop")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_random_kills_of_sweeps_and_datasets_leave_complete_or_nothing(tmp_path):
+    """20 runs of each, stopped by a random signal at a random moment: afterwards
+    nothing of theirs runs, the next run finishes with no temporary left, and what is
+    on disk is either complete or absent."""
+    rng = random.Random(2026)
+    for i in range(20):
+        for kind in ("sweep", "dataset"):
+            out = tmp_path / f"{kind}{i}"
+            out.mkdir()
+            if kind == "sweep":
+                args = ["sweep", str(SWEEP), "--workers", "2", "--out", str(out)]
+            else:
+                args = ["dataset", "--n", "200000", "--out", str(out / "d.npz")]
+            sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+            tag = uuid.uuid4().hex
+            proc = _start(args, tag)
+            time.sleep(rng.uniform(0.05, 3.0))
+            proc.send_signal(sig)
+            _o, err = proc.communicate(timeout=60)
+            expected = -signal.SIGKILL if sig == signal.SIGKILL else STATUS[sig]
+            assert proc.returncode in (expected, 0), (kind, sig, err.decode()[-500:])
+            assert "Traceback" not in err.decode(), err.decode()[-1500:]
+            assert _none_left(tag) == [], (kind, sig)
+            _check_rerun(kind, out, args)
+
+
+def _check_rerun(kind: str, out: Path, args: list[str]) -> None:
+    if kind == "dataset":
+        small = [*args[:2], "200", *args[3:]]
+        done = subprocess.run(
+            [sys.executable, "-m", "humanoid_ik", *small], capture_output=True, timeout=120
+        )
+        assert done.returncode == 0, done.stderr
+        d = read_dataset(out / "d.npz")
+        assert d.positions.shape == (200, 3) and np.all(np.isfinite(d.q))
+    else:  # a resumed sweep finishes and its job records are whole
+        done = subprocess.run(
+            [sys.executable, "-m", "humanoid_ik", *args], capture_output=True, timeout=300
+        )
+        assert done.returncode == 0, done.stderr
+        assert (out / "summary.csv").exists()
+    assert _temporaries(out) == [], _temporaries(out)
