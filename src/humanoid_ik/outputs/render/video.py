@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import queue
+import struct
 import threading
 from pathlib import Path
 
@@ -16,7 +17,35 @@ from humanoid_ik.errors import RenderError
 from humanoid_ik.outputs.atomic import atomic_path
 from humanoid_ik.run.metrics import FrameRecord
 
-__all__ = ["VideoWriter"]
+__all__ = ["VideoWriter", "mp4_complete"]
+
+
+def mp4_complete(path: str | os.PathLike) -> bool:
+    """True when the file is a whole MP4: its top-level boxes fill the file exactly and
+    include the ``moov`` index that ffmpeg writes last (a disk that fills while ffmpeg
+    writes its trailer leaves a file without it, which no player opens)."""
+    seen = set()
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            pos = 0
+            while pos < size:
+                f.seek(pos)
+                head = f.read(16)
+                if len(head) < 8:
+                    return False
+                length, kind = struct.unpack(">I4s", head[:8])
+                if length == 1 and len(head) == 16:  # 64-bit size
+                    length = struct.unpack(">Q", head[8:16])[0]
+                elif length == 0:  # the box runs to the end of the file
+                    length = size - pos
+                if length < 8:
+                    return False
+                seen.add(kind)
+                pos += length
+    except OSError:
+        return False
+    return pos == size and b"moov" in seen and b"mdat" in seen
 
 
 class VideoWriter:
@@ -69,6 +98,8 @@ class VideoWriter:
                     break
                 self._writer.send(item)
             self._writer.close()
+            if self.frames and not mp4_complete(self._tmp):
+                raise RenderError("ffmpeg did not finish the file (is the disk full?)")
         except BaseException as exc:  # reported by close()
             self._error = exc
             while not drained and self._queue.get() is not None:  # let the producer finish
