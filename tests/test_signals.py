@@ -207,3 +207,18 @@ def _check_rerun(kind: str, out: Path, args: list[str]) -> None:
         assert done.returncode == 0, done.stderr
         assert (out / "summary.csv").exists()
     assert _temporaries(out) == [], _temporaries(out)
+
+
+@pytest.mark.slow
+def test_killed_sweep_on_local_ray_takes_its_ray_processes_along(tmp_path):
+    pytest.importorskip("ray")  # the ray extra; CI installs it
+    tag = uuid.uuid4().hex
+    args = ["sweep", str(SWEEP), "--ray", "local", "--workers", "2", "--out", str(tmp_path)]
+    proc = _start(args, tag)
+    deadline = time.monotonic() + 120
+    while not list((tmp_path / "jobs").glob("*.json")) and time.monotonic() < deadline:
+        time.sleep(0.2)  # Ray is up and its workers are running jobs
+    assert len(_tagged(tag)) >= 4  # the sweep, the reaper, Ray's raylet, GCS, workers
+    proc.kill()
+    proc.communicate(timeout=60)
+    assert _none_left(tag, within=20) == []

@@ -19,10 +19,12 @@ import ctypes
 import multiprocessing as mp
 import os
 import signal
+import subprocess
 import sys
 import tempfile
 import threading
 import time
+import uuid
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
@@ -37,6 +39,7 @@ __all__ = [
     "MAX_WORKERS",
     "PRELOAD",
     "RAY_CONNECT_ENV",
+    "RAY_TAG_ENV",
     "RAY_CONNECT_TIMEOUT_S",
     "OnDone",
     "die_with",
@@ -227,6 +230,34 @@ def _init_ray(ray: Any, workers: int | None, address: str) -> None:
     sys.stderr.write("".join(held))
 
 
+RAY_TAG_ENV = "HUMANOID_IK_RAY_SESSION"
+"""The environment variable that marks the processes of a local Ray instance started by
+a sweep, for the reaper (``experiments/sweep/reaper.py``)."""
+
+
+@contextmanager
+def _fate_shared() -> Iterator[None]:
+    """Processes started in the block (a local Ray instance) die with this process,
+    however it dies: they inherit a tag in their environment, and a reaper process
+    kills every process with the tag when this one's pipe to it closes."""
+    tag = uuid.uuid4().hex
+    reaper = subprocess.Popen(
+        [sys.executable, os.path.join(os.path.dirname(__file__), "reaper.py"), RAY_TAG_ENV, tag],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    os.environ[RAY_TAG_ENV] = tag
+    try:
+        yield
+    finally:
+        os.environ.pop(RAY_TAG_ENV, None)
+        if reaper.stdin is not None:
+            reaper.stdin.close()
+        reaper.wait()
+
+
 def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnDone) -> None:
     """Run ``jobs`` as Ray tasks (1 CPU each, no retries).
 
@@ -235,13 +266,24 @@ def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnD
         workers: CPUs of a local Ray instance (default ``os.cpu_count()``).
         address: ``"local"`` starts a private instance, anything else is passed to
             ``ray.init(address=...)``. A Ray already initialised in this process is used
-            as it is (and left running); one started here is shut down at the end.
+            as it is (and left running); one started here is shut down at the end, and
+            its processes die with this one if it is killed (``_fate_shared``).
         on_done: called as each record comes back.
 
     Raises:
         SweepError: Ray is not installed, or cannot join the cluster at ``address``.
     """
     ray = import_ray(address)
+    if address == "local" and not ray.is_initialized():
+        with _fate_shared():
+            _run_ray(ray, jobs, workers, address, on_done)
+    else:
+        _run_ray(ray, jobs, workers, address, on_done)
+
+
+def _run_ray(
+    ray: Any, jobs: Sequence[Job], workers: int | None, address: str, on_done: OnDone
+) -> None:
     started = False
     if not ray.is_initialized():
         _init_ray(ray, workers, address)
