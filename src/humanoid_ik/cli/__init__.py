@@ -1,5 +1,22 @@
-"""The ``humanoid-ik`` command line: one module per command, :mod:`.app` ties them up."""
+"""The ``humanoid-ik`` command line: one module per command, :mod:`.app` ties them up.
 
-from humanoid_ik.cli.app import build_parser, main
+:func:`main` imports the commands (and MuJoCo) only when called, so Ctrl-C during the
+start-up ends with the usual one line and status 130, not an import traceback.
+"""
 
-__all__ = ["build_parser", "main"]
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+
+__all__ = ["main"]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit code (see :mod:`humanoid_ik.cli.app`)."""
+    try:
+        from humanoid_ik.cli.app import main as run
+    except KeyboardInterrupt:
+        print("humanoid-ik: interrupted", file=sys.stderr)
+        return 130
+    return run(argv)
