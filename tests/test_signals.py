@@ -168,18 +168,20 @@ def test_random_kills_of_sweeps_and_datasets_leave_complete_or_nothing(tmp_path)
     nothing of theirs runs, the next run finishes with no temporary left, and what is
     on disk is either complete or absent."""
     rng = random.Random(2026)
+    sweep = tmp_path / "small.toml"
+    sweep.write_text(SMALL_SWEEP)
     for i in range(20):
         for kind in ("sweep", "dataset"):
             out = tmp_path / f"{kind}{i}"
             out.mkdir()
             if kind == "sweep":
-                args = ["sweep", str(SWEEP), "--workers", "2", "--out", str(out)]
+                args = ["sweep", str(sweep), "--workers", "2", "--out", str(out)]
             else:
                 args = ["dataset", "--n", "200000", "--out", str(out / "d.npz")]
             sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
             tag = uuid.uuid4().hex
             proc = _start(args, tag)
-            time.sleep(rng.uniform(0.05, 3.0))
+            time.sleep(rng.uniform(0.15, 3.0))  # after the interpreter has started
             proc.send_signal(sig)
             _o, err = proc.communicate(timeout=60)
             # ended by the signal itself (before the handlers are installed, or SIGKILL),
@@ -189,6 +191,22 @@ def test_random_kills_of_sweeps_and_datasets_leave_complete_or_nothing(tmp_path)
             assert "Traceback" not in err.decode(), err.decode()[-1500:]
             assert _none_left(tag) == [], (kind, sig)
             _check_rerun(kind, out, args)
+
+
+SMALL_SWEEP = """
+name = "small"
+seeds = [0, 1]
+solvers = ["dls", "closed_form"]
+
+[[scenes]]
+scene = "circle"
+frames = 60
+
+[[targets]]
+name = "right_pose"
+task = "pose"
+n = 50
+"""
 
 
 def _check_rerun(kind: str, out: Path, args: list[str]) -> None:
@@ -222,3 +240,17 @@ def test_killed_sweep_on_local_ray_takes_its_ray_processes_along(tmp_path):
     proc.kill()
     proc.communicate(timeout=60)
     assert _none_left(tag, within=20) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay", [0.1, 0.2, 0.3, 0.45])
+def test_ctrl_c_during_start_up_is_one_line_and_130(tmp_path, delay):
+    """SIGINT while the command line is still importing MuJoCo and the commands."""
+    proc = _start(["scenes"], "x")
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    text = err.decode()
+    assert "Traceback" not in text, text
+    if proc.returncode != 0:  # the listing can finish first on a fast machine
+        assert proc.returncode == 130 and text.strip() == "humanoid-ik: interrupted"
