@@ -144,3 +144,18 @@ def test_all_names_import(name):
     mod = importlib.import_module(name)
     for item in getattr(mod, "__all__", []):
         assert hasattr(mod, item), f"{name}.__all__ lists missing {item!r}"
+
+
+def test_front_door_lists_each_public_name_once_for_runtime_and_type_checkers():
+    """``humanoid_ik/__init__.py`` imports lazily from ``_EXPORTS``; its TYPE_CHECKING
+    imports must name the same objects from the same modules."""
+    tree = ast.parse((SRC / "__init__.py").read_text())
+    typed: dict[str, str] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING":
+            for stmt in node.body:
+                if isinstance(stmt, ast.ImportFrom):
+                    typed.update({a.name: str(stmt.module) for a in stmt.names})
+    assert typed == humanoid_ik._EXPORTS
+    for name in humanoid_ik.__all__:
+        assert getattr(humanoid_ik, name) is not None

@@ -84,7 +84,7 @@ CASES = [
     # --- item 7: tracebacks and hangs that are one line now
     ("bench-seed", ["bench", "--n", "2", "--solvers", "dls", "--seed", "-1"], 2,
      "argument --seed: expected an integer >= 0, got '-1'"),
-    ("nullspace-dls", [*SOLVE, "--option", "nullspace_gain=1e308"], 2,
+    ("nullspace-dls", [*SOLVE, "--solver", "dls", "--option", "nullspace_gain=1e308"], 2,
      "option 'nullspace_gain' of solver 'dls' must be a finite number >= 0 and <= 1, "
      "got 1e+308"),
     ("nullspace-pinv", [*SOLVE, "--solver", "pseudoinverse", "--option", "nullspace_gain=1e308"],
@@ -157,10 +157,10 @@ CASES = [
      "argument --workers: expected an integer >= 1 and <= 256, got '100000'"),
     ("sweep-jobs", ["sweep", "{sweep:jobs}", "--out", "{tmp}/o"], 2,
      "expected at most 100000 jobs (sets x configurations x seeds), got 120000"),
-    ("max-iterations", [*SOLVE, "--option", "max_iterations=1e12"], 2,
+    ("max-iterations", [*SOLVE, "--solver", "dls", "--option", "max_iterations=1e12"], 2,
      "option 'max_iterations' of solver 'dls' must be an integer >= 0 and <= 100000, "
      "got 1000000000000"),
-    ("stall-window", [*SOLVE, "--option", "stall_window=1e12"], 2,
+    ("stall-window", [*SOLVE, "--solver", "dls", "--option", "stall_window=1e12"], 2,
      "option 'stall_window' of solver 'dls' must be an integer >= 0 and <= 100000"),
     ("restarts", [*SOLVE, "--solver", "pseudoinverse", "--option", "restarts=1e9"], 2,
      "option 'restarts' of solver 'pseudoinverse' must be an integer >= 0 and <= 1000"),

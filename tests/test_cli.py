@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -12,6 +14,7 @@ import pytest
 from humanoid_ik import Chain
 from humanoid_ik.cli import main
 from humanoid_ik.core.rotations import mat_to_quat
+from humanoid_ik.experiments.sweep.summary import percent
 
 
 def _run(capsys, *argv):
@@ -22,7 +25,7 @@ def _run(capsys, *argv):
 
 def test_solve_prints_joints_and_errors(capsys):
     """solve prints every joint of the chain and a sub-millimetre error; exit 0."""
-    code, out, err = _run(capsys, "solve", "--target", "0.3,-0.3,1.1")
+    code, out, err = _run(capsys, "solve", "--target", "0.3,-0.3,1.1", "--solver", "dls")
     assert code == 0 and err == ""
     assert "solver dls: converged" in out
     assert out.count("rad") >= 7 and "right_wrist_deviation_joint" in out
@@ -200,9 +203,138 @@ def test_option_values_are_typed(capsys):
     )
     doc = json.loads(out)
     assert code == 0 and doc["orientation_error_rad"] < 1e-8
-    code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--option", "restarts=true")
+    code, _, err = _run(
+        capsys, "solve", "--target", "0,0,1", "--solver", "dls", "--option", "restarts=true"
+    )
     assert code == 2 and "'restarts' of solver 'dls' must be a number, got True" in err
-    code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--option", "tol=1,2")
+    code, _, err = _run(
+        capsys, "solve", "--target", "0,0,1", "--solver", "dls", "--option", "tol=1,2"
+    )
     assert code == 2 and "'tol' of solver 'dls' must be a number, got [1, 2]" in err
     code, _, err = _run(capsys, "solve", "--target", "0,0,1", "--joints", ",")
     assert code == 2 and "empty name list ','" in err
+
+
+# ----------------------------------------------------------------------------- rough edges
+def test_negative_numbers_in_target_and_quat(capsys):
+    """--target -0.1,... and --quat -0.5,... are values, not options (argparse alone says
+    'expected one argument'); the solve lands on the negative target."""
+    chain = Chain()
+    q = [0.3, 0.2, -0.4, 1.3, 0.2, 0.1, -0.1]
+    target, R = chain.fk(q)
+    quat = -mat_to_quat(R)  # the same rotation, its w negative
+    assert target[1] < 0 and quat[0] < 0
+    code, out, err = _run(
+        capsys,
+        "solve",
+        "--target",
+        ",".join(f"{v:.17g}" for v in target),
+        "--quat",
+        ",".join(f"{v:.17g}" for v in quat),
+        "--solver",
+        "dls",
+        "--json",
+    )
+    assert code == 0 and err == ""
+    doc = json.loads(out)
+    np.testing.assert_allclose(doc["target"]["position"], target)
+    p, _ = chain.fk([doc["q"][n] for n in chain.joint_names])
+    np.testing.assert_allclose(p, target, atol=1e-3)
+    code, out, err = _run(capsys, "solve", "--target", "-0.1,-0.2,1.1", "--solver", "dls")
+    assert "expected one argument" not in err and code in (0, 1) and "solver dls" in out
+    code, _, err = _run(capsys, "solve", "--target", "-x,0,1")
+    assert code == 2 and "expected one argument" in err  # not a number: still an option
+
+
+def test_debug_is_accepted_after_the_command(capsys):
+    """--debug before or after the command: no 'unrecognized arguments'; an error then
+    shows its traceback and the one line."""
+    for argv in (
+        ["--debug", "solve", "--target", "0.3,-0.3,1.1", "--solver", "dls"],
+        ["solve", "--target", "0.3,-0.3,1.1", "--solver", "dls", "--debug"],
+    ):
+        code, out, err = _run(capsys, *argv)
+        assert code == 0 and err == "" and "converged" in out
+    code, _, err = _run(capsys, "solve", "--target", "0,0", "--debug")
+    assert code == 2 and "Traceback" in err
+    assert err.splitlines()[-1] == ("humanoid-ik: error: --target '0,0' has 2 value(s); expected 3")
+    assert "unrecognized" not in err
+
+
+def _cli(*argv: str) -> list[str]:
+    return [sys.executable, "-m", "humanoid_ik", *argv]
+
+
+def test_closed_pipe_ends_quietly_with_141():
+    """The reader of the output gone (its end of the pipe closed): no 'Broken pipe' error,
+    no traceback, exit 141 (128 + SIGPIPE, what a shell shows)."""
+    p = subprocess.Popen(_cli("scenes"), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert p.stdout is not None and p.stderr is not None
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=60) == 141 and err == ""
+
+
+@pytest.mark.slow
+def test_render_into_a_closed_pipe_through_a_shell(tmp_path):
+    """`humanoid-ik render ... | head -n 0`: head is gone before render prints; render
+    still writes its files, exits 141 and prints no error."""
+    cmd = " ".join(
+        _cli(
+            "render",
+            "circle",
+            "--frames",
+            "2",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--no-video",
+            "--out",
+            str(tmp_path / "r"),
+        )
+    )
+    res = subprocess.run(
+        ["bash", "-c", f"{cmd} | head -n 0; echo status=${{PIPESTATUS[0]}}"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert res.stdout.strip() == "status=141"
+    assert "Broken pipe" not in res.stderr and "error" not in res.stderr
+    assert (tmp_path / "r" / "metrics.json").is_file()
+
+
+@pytest.mark.slow
+def test_sigterm_is_handled_like_ctrl_c():
+    """SIGTERM during a long bench: one line 'humanoid-ik: terminated', exit 143, no
+    traceback."""
+    code = (
+        "import sys\n"
+        "from humanoid_ik.cli import main\n"
+        "print('ready', flush=True)\n"
+        "sys.exit(main(['bench', '--n', '100000', '--solvers', 'ccd']))\n"
+    )
+    p = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert p.stdout is not None
+    assert p.stdout.readline().strip() == "ready"
+    time.sleep(1.0)  # inside the benchmark loop
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143
+    assert err.strip().splitlines()[-1] == "humanoid-ik: terminated"
+    assert "Traceback" not in err
+
+
+def test_sweep_percentages_never_round_up_to_100():
+    """99.75% shows 99.7 (rounded down), 100% shows 100.0, a share of 0.29 stays 29.0
+    (no binary-fraction floor to 28.9), and a missing value is a dash."""
+    assert percent(0.9975) == "99.7"
+    assert percent(0.99999999) == "99.9"
+    assert percent(1.0) == "100.0"
+    assert percent(0.29) == "29.0"
+    assert percent(0.123456, "11.1f") == "       12.3"
+    assert percent(None, "11.1f") == "          -"
+    assert percent(0.9999, ".0f") == "99"

@@ -3,7 +3,14 @@
 from __future__ import annotations
 
 import importlib
+import os
 import pkgutil
+import shutil
+import subprocess
+import sys
+import tarfile
+import zipfile
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -73,3 +80,113 @@ def test_failed_solve_leaves_caller_data_unchanged():
     res = solve(chain, [3.0, 0.0, 1.4], "two_link", data=d, apply=True)
     assert res.status == "unreachable"
     np.testing.assert_array_equal(d.qpos, before)
+
+
+# ----------------------------------------------------------------------------- packaging
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_bundled_folders_of_a_checkout():
+    """In the checkout (an editable install) the bundled folders are the repository's own;
+    reports name the model the same way as an installed wheel does."""
+    from humanoid_ik.core.models import BUNDLED_KINDS, bundled_dir, display_model
+
+    for kind in BUNDLED_KINDS:
+        assert bundled_dir(kind).resolve() == (REPO / kind).resolve()
+    assert display_model(None) == "models/humanoid/scene.xml"
+    with pytest.raises(humanoid_ik.ModelError, match="folders: models, scenes, sweeps"):
+        bundled_dir("renders")
+
+
+def _clean_copy(dest: Path) -> Path:
+    """The files a build reads, copied without the checkout's build leftovers."""
+    keep = ["pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "src", *BUNDLED]
+    ignore = shutil.ignore_patterns("__pycache__", "*.egg-info", "*.pyc")
+    dest.mkdir(parents=True)
+    for name in keep:
+        src = REPO / name
+        if src.is_dir():
+            shutil.copytree(src, dest / name, ignore=ignore)
+        else:
+            shutil.copy2(src, dest / name)
+    return dest
+
+
+BUNDLED = ("models", "scenes", "sweeps")
+
+
+@pytest.mark.slow
+def test_wheel_carries_and_finds_its_bundled_files(tmp_path):
+    """A wheel built from the project holds models/, scenes/, sweeps/ under
+    humanoid_ik/_bundled/; unpacked outside the checkout, the package reads them through
+    importlib.resources: scenes lists the bundled scenes and solve uses the humanoid."""
+    src = _clean_copy(tmp_path / "src")
+    dist = tmp_path / "dist"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(src)],
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
+    (wheel,) = dist.glob("humanoid_ik-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        names = set(z.namelist())
+        z.extractall(tmp_path / "site")
+    for f in (
+        "models/humanoid/scene.xml",
+        "models/humanoid/humanoid.xml",
+        "scenes/circle.toml",
+        "sweeps/compare_solvers.toml",
+    ):
+        assert f"humanoid_ik/_bundled/{f}" in names
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    env = {**os.environ, "PYTHONPATH": str(tmp_path / "site")}
+    for key in ("HUMANOID_IK_MODELS", "HUMANOID_IK_SCENES", "HUMANOID_IK_SWEEPS"):
+        env.pop(key, None)
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, *args],
+            cwd=elsewhere,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+
+    probe = run(
+        "-c",
+        "import humanoid_ik; from humanoid_ik.core.models import bundled_dir, display_model;"
+        "print(humanoid_ik.__file__); print(bundled_dir('scenes')); print(display_model(None))",
+    )
+    pkg, scenes, shown = probe.stdout.split("\n")[:3]
+    site = str((tmp_path / "site").resolve())
+    assert pkg.startswith(site) and scenes == f"{site}/humanoid_ik/_bundled/scenes"
+    assert shown == "models/humanoid/scene.xml"
+    res = run("-m", "humanoid_ik", "scenes")
+    assert res.returncode == 0 and res.stdout.splitlines()[1].startswith("circle ")
+    res = run("-m", "humanoid_ik", "solve", "--target", "0.35,-0.30,1.15", "--solver", "dls")
+    assert res.returncode == 0 and "converged" in res.stdout, res.stderr
+
+
+@pytest.mark.slow
+def test_sdist_carries_the_bundled_folders_and_builds_the_wheel(tmp_path):
+    """The sdist has the top-level folders (MANIFEST.in) and the wheel built from it maps
+    them into the package (what .ci/wheel-smoke installs)."""
+    pytest.importorskip("build", reason="python -m build (CI: .ci/wheel-smoke builds it)")
+    src = _clean_copy(tmp_path / "src")
+    dist = tmp_path / "dist"
+    subprocess.run(
+        [sys.executable, "-m", "build", "-o", str(dist), str(src)],
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
+    (sdist,) = dist.glob("humanoid_ik-*.tar.gz")
+    with tarfile.open(sdist) as t:
+        names = {n.split("/", 1)[1] for n in t.getnames() if "/" in n}
+    assert {"models/humanoid/scene.xml", "scenes/circle.toml", "setup.py"} <= names
+    (wheel,) = dist.glob("humanoid_ik-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        assert "humanoid_ik/_bundled/scenes/circle.toml" in z.namelist()

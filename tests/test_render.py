@@ -5,6 +5,7 @@ targets project, and the outputs are complete."""
 from __future__ import annotations
 
 import fcntl
+import json
 import math
 import os
 import pty
@@ -199,7 +200,8 @@ def test_metrics_put_the_hand_on_reachable_targets(renders, name):
 
 @pytest.mark.slow
 def test_outputs_are_complete_and_atomic(renders):
-    """The folder holds the MP4, the PNGs, contact sheet, metrics CSV/JSON and no temporary.
+    """The folder holds the MP4, the PNGs, contact sheet, metrics CSV/JSON, the trajectory
+    and no temporary.
 
     Also: the contact sheet's grid, the EGL backend, and one loop time per frame within
     the whole render's time."""
@@ -207,6 +209,7 @@ def test_outputs_are_complete_and_atomic(renders):
     names = sorted(p.name for p in out.folder.iterdir())
     assert names == sorted(
         ["circle.mp4", "contact_sheet.png", "metrics.csv", "metrics.json"]
+        + ["trajectory.csv", "trajectory.npz"]
         + [f"frame_{i:04d}.png" for i in range(N)]
     )
     assert all(p.exists() for p in out.files())
@@ -352,7 +355,7 @@ def test_render_command(tmp_path, capsys):
     ("args", "message"),
     [
         (["--camera", "left"], "--camera 'left' not in model; cameras: front, side, top"),
-        (["--solver", "magic"], "--solver 'magic' unknown; solvers: two_link, ccd"),
+        (["--solver", "magic"], "--solver 'magic' unknown; solvers: "),
         (["--width", "63"], "argument --width: expected an even integer >= 16, got '63'"),
         (["--height", "x"], "argument --height: expected an even integer >= 16, got 'x'"),
         (["--frames", "0"], "argument --frames: expected an integer >= 1, got '0'"),
@@ -360,6 +363,9 @@ def test_render_command(tmp_path, capsys):
         (["--fps", "-3"], "argument --fps: expected a number >= 0.01 and <= 1000, got '-3'"),
         (["--fps", "fast"], "argument --fps: expected a number >= 0.01 and <= 1000, got 'fast'"),
         (["--width", "4000"], "render.width: expected at most 1920"),
+        (["--until", "7"], "--until 7 is after the end of scene 'circle' (4 s)"),
+        (["--until", "-1"], "argument --until: expected a number of seconds > 0, got '-1'"),
+        (["--frames", "10", "--fps", "5"], "--frames 10 sets the frame rate"),
     ],
 )
 def test_render_command_bad_input(tmp_path, capsys, args, message):
@@ -582,3 +588,52 @@ def test_backend_choice_lists_what_it_changed(tmp_path):
     assert lines[0] == "egl default egl"
     assert "os.environ['MUJOCO_GL'] = 'egl'" in lines[1:]
     assert any(ln.endswith(".GLContext = mujoco.egl.GLContext") for ln in lines[1:]), lines
+
+
+@pytest.mark.slow
+def test_frames_preview_the_whole_scene(tmp_path, capsys):
+    """`--frames 48` on out_of_reach spreads 48 frames over its 6 s: the target leaves
+    reach and comes back, and each of the four snapshot times gets its own PNG, no note."""
+    out = tmp_path / "o"
+    args = ["render", "out_of_reach", "--frames", "48", "--out", str(out)]
+    assert main([*args, "--width", "32", "--height", "24", "--no-video"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""
+    assert captured.out.startswith("out_of_reach: 48 frame(s)")
+    assert "reachable 25/48" in captured.out
+    m = json.loads((out / "metrics.json").read_text())
+    times = [s["time_s"] for s in m["samples"]]
+    assert len(times) == 48 and times[-1] == pytest.approx(5.875)
+    reach = [s["reachable"] for s in m["samples"]]
+    assert reach[0] and not all(reach) and reach[-1]  # away in the middle, back at the end
+    snaps = sorted(p.name for p in out.glob("frame_*.png"))
+    assert snaps == ["frame_0004.png", "frame_0020.png", "frame_0024.png", "frame_0044.png"]
+
+
+def test_until_cuts_and_says_which_snapshots_fall_after(tmp_path, capsys):
+    """`--until 2 --frames 10`: 10 frames over the first 2 s; the three snapshot times
+    after 1.8 s are named in one note line and the last frame is saved for them."""
+    out = tmp_path / "o"
+    args = ["render", "out_of_reach", "--until", "2", "--frames", "10", "--out", str(out)]
+    assert main([*args, "--width", "32", "--height", "24", "--no-video"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == (
+        "humanoid-ik: note: snapshot(s) at 2.5 s, 3 s, 5.5 s after the last rendered frame "
+        "#9 (1.80 s); that frame is saved for them\n"
+    )
+    m = json.loads((out / "metrics.json").read_text())
+    assert [s["time_s"] for s in m["samples"]][-1] == pytest.approx(1.8)
+    snaps = sorted(p.name for p in out.glob("frame_*.png"))
+    assert snaps == ["frame_0002.png", "frame_0009.png"]
+
+
+def test_snapshot_times_on_one_frame_are_named():
+    """Two snapshot times on the same frame give one PNG and a note naming both."""
+    from humanoid_ik.outputs.render.stills import snapshot_plan
+
+    idx, notes = snapshot_plan([0.5, 0.55, 1.0], fps=4.0, n=8)
+    assert idx == [2, 4]
+    assert notes == [
+        "snapshots at 0.5 s, 0.55 s fall on the same frame #2 (0.50 s at 4 frames/s); one PNG"
+    ]
+    assert snapshot_plan([], fps=4.0, n=8) == ([0, 2, 5, 7], [])

@@ -149,13 +149,17 @@ def test_good_scene_values(tmp_path):
 
 
 def test_overrides(tmp_path):
-    """with_overrides replaces solver, frame count, size, camera and gif; None keeps."""
+    """with_overrides replaces solver, frame count (spread over the duration, or over
+    the first `until` seconds), size, camera and gif; None keeps."""
     sc = load_scene(write(tmp_path, GOOD))
     o = sc.with_overrides(solver="ccd", frames=7, width=96, height=72, camera="side", gif=True)
-    assert o.solver == SolverSpec("ccd") and o.n_frames == 7 and o.fps == 10.0
+    assert o.solver == SolverSpec("ccd") and o.n_frames == 7 and o.duration == 2.0
+    assert o.fps == pytest.approx(3.5)
     assert o.render == RenderSpec(96, 72, "side", 1.5, True, (), 12)
     assert sc.with_overrides() == sc
-    assert sc.with_overrides(fps=5, frames=3).duration == pytest.approx(0.6)
+    cut = sc.with_overrides(until=0.6, frames=3)
+    assert cut.duration == pytest.approx(0.6) and cut.fps == pytest.approx(5.0)
+    assert cut.n_frames == 3
 
 
 def test_name_defaults_to_file_stem_and_model_is_relative(tmp_path):
@@ -232,7 +236,7 @@ BAD = [
         "targets[0].motion.\"a\\nb\": unknown key for motion 'circle'",
     ),
     ('name = "probe"', 'name = "probe"\ncolour = "red"', "colour: unknown key; expected one of"),
-    ('name = "dls"', 'name = "magic"', "solver.name: expected one of two_link, ccd"),
+    ('name = "dls"', 'name = "magic"', "solver.name: expected one of auto, two_link, ccd"),
     (
         "options = { restarts = 0 }",
         "options = { restart = 0 }",
@@ -387,7 +391,7 @@ def test_file_level_errors(tmp_path):
     msg = error_of(p)
     assert msg.startswith(f"{display_path(p)}: not valid TOML: ")
     p = write(tmp_path, 'model = "nowhere.xml"\n' + GOOD)
-    assert "model: expected an MJCF file, got 'nowhere.xml' (not found)" in error_of(p)
+    assert "model: expected an MJCF or URDF file, got 'nowhere.xml' (not found)" in error_of(p)
     p = write(
         tmp_path, GOOD.replace('[solver]\nname = "dls"\noptions = { restarts = 0 }', "solver = 3")
     )

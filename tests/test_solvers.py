@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from humanoid_ik.core.rotations import mat_to_quat, rotation_log
 from .chains import SMALL_ARM_XML, model
 
 N = 500
-REACHING = ["two_link", "ccd", "jacobian_transpose", "pseudoinverse", "dls"]
+REACHING = ["two_link", "ccd", "jacobian_transpose", "pseudoinverse", "dls", "lm", "auto"]
 ROBOT = Path(__file__).resolve().parents[1] / "models" / "robot" / "robot.xml"
 ROBOT_ARM = [
     "r_sh_pitch",
@@ -79,7 +80,7 @@ def test_round_trip_position(arm, solver_name):
 
 
 @pytest.mark.parametrize("arm", list(ARMS))
-@pytest.mark.parametrize("solver_name", ["pseudoinverse", "dls"])
+@pytest.mark.parametrize("solver_name", ["pseudoinverse", "dls", "lm", "auto"])
 def test_round_trip_pose(arm, solver_name):
     """500 reachable pose targets: within 1 mm and 0.01 rad, inside the ranges."""
     chain = ARMS[arm]()
@@ -232,7 +233,9 @@ def test_look_at_rotation_degenerate_up():
 
 def test_solver_options_are_checked():
     """Unknown options, wrong types, and out-of-range values name the option."""
-    with pytest.raises(SolverError, match="solver 'nope' unknown; solvers: ccd, closed_form, dls"):
+    with pytest.raises(
+        SolverError, match="solver 'nope' unknown; solvers: auto, ccd, closed_form, dls"
+    ):
         make_solver("nope")
     with pytest.raises(SolverError, match="option 'damp' unknown for solver 'dls'; options: "):
         make_solver("dls", damp=1)
@@ -358,3 +361,95 @@ def test_result_status_is_checked():
 
     with pytest.raises(ValueError, match="status 'done' unknown; statuses: converged"):
         IKResult(np.zeros(2), True, 1, 0.0, None, "done")
+
+
+@pytest.mark.parametrize(
+    ("solver", "option", "value", "message"),
+    [
+        ("ccd", "max_iterations", 100_001, "an integer >= 0 and <= 100000, got 100001"),
+        ("ccd", "restarts", 1_001, "an integer >= 0 and <= 1000, got 1001"),
+        ("ccd", "stall_window", 10**9, "an integer >= 0 and <= 100000, got 1000000000"),
+        ("closed_form", "swivel", 7.0, "a finite number >= -6.28319 and <= 6.28319, got 7.0"),
+        ("closed_form", "swivel", -7.0, "a finite number >= -6.28319 and <= 6.28319, got -7.0"),
+        ("dls", "library_seeds", 4_001, "an integer >= 0 and <= 4000, got 4001"),
+        ("mink", "rot_tol", 4.0, "a finite number >= 0 and <= 3.14159, got 4.0"),
+        *[
+            (name, "tol", 1.5, "a finite number >= 0 and <= 1, got 1.5")
+            for name in ("two_link", "closed_form", "ccd", "look_at", "mink", "auto", "lm")
+        ],
+        *[
+            (name, "rot_tol", 1e308, "a finite number >= 0 and <= 3.14159, got 1e+308")
+            for name in ("two_link", "closed_form", "dls")
+        ],
+    ],
+)
+def test_option_bounds(solver, option, value, message):
+    """A value past an option's bound is refused in one line naming the option, the
+    solver and both bounds."""
+    with pytest.raises(SolverError, match=f"option '{option}' of solver '{solver}' must be ") as e:
+        make_solver(solver, **{option: value})
+    assert str(e.value).endswith(message) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("solver", "options"),
+    [
+        ("ccd", {"max_iterations": 100_000, "restarts": 1_000, "stall_window": 100_000}),
+        ("closed_form", {"swivel": -2 * math.pi, "tol": 1.0, "rot_tol": math.pi}),
+        ("two_link", {"tol": 0.0, "rot_tol": math.pi}),
+        ("dls", {"library_seeds": 4_000, "nullspace_gain": 1.0}),
+    ],
+)
+def test_option_bounds_are_inclusive(solver, options):
+    """Each bound itself is accepted and kept."""
+    s = make_solver(solver, **options)
+    for key, value in options.items():
+        assert getattr(s.options, key) == value
+
+
+def test_bounds_merge_along_the_options_classes():
+    """Every solver's options carry tol and rot_tol bounds; a family adds its own, a
+    subclass entry winning (lm's stall_window has a lower bound of 2)."""
+    from humanoid_ik.solvers import SOLVERS
+
+    for cls in SOLVERS.values():
+        b = cls.Options.bounds()
+        assert b["tol"] == (0.0, 1.0) and b["rot_tol"] == (0.0, math.pi)
+    assert SOLVERS["dls"].Options.bounds()["restarts"] == (0, 1_000)
+    assert SOLVERS["lm"].Options.bounds()["stall_window"] == (2, 100_000)
+    assert "swivel" in SOLVERS["closed_form"].Options.bounds()
+
+
+def test_cli_option_past_a_bound_is_one_line(capsys):
+    """`solve --solver ccd --option restarts=5000` exits 2 with the bound in one line."""
+    from humanoid_ik.cli.app import main
+
+    code = main(
+        ["solve", "--target", "0.3,-0.2,1.1", "--solver", "ccd", "--option", "restarts=5000"]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "option 'restarts' of solver 'ccd' must be an integer >= 0 and <= 1000, got 5000" in err
+
+
+def test_no_solver_leaves_the_ranges(rng):
+    """Property: every solver, on random targets in a 3 m box around the bundled arm's
+    hand (reachable or not, pose targets for those that take them), from random starts,
+    answers inside the joint ranges exactly."""
+    from humanoid_ik.solvers import SOLVERS
+
+    chain = Chain()
+    centre = chain.position.copy()
+    cases = [(chain.random_q(rng), centre + rng.uniform(-1.5, 1.5, 3)) for _ in range(4)]
+    quat = mat_to_quat(chain.rotation)
+    for name, cls in SOLVERS.items():
+        has_restarts = "restarts" in {f.name for f in dataclasses.fields(cls.Options)}
+        options = {"restarts": 1} if has_restarts else {}  # quick: one restart
+        solver = make_solver(name, **options)
+        for q0, p in cases:
+            for pose in (False, True):
+                tgt = Target(p, quat if pose else None)
+                if solver.applicable(chain, pose) is not None:
+                    continue
+                res = solver.solve(chain, tgt, q0)
+                assert chain.within_limits(res.q, tol=0.0), (name, pose, res.q)

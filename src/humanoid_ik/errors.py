@@ -123,3 +123,8 @@ class SweepError(HumanoidIKError, ValueError):
 class DatasetError(HumanoidIKError, ValueError):
     """A dataset request that cannot be met (bad size, a chain without the closed-form
     structure) or a file that is not a humanoid_ik dataset."""
+
+
+class TrajectoryFileError(HumanoidIKError, ValueError):
+    """A trajectory file that cannot be read, or that does not fit the model it is played
+    or exported on (other joints, another model file's digest)."""

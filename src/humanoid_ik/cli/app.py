@@ -2,24 +2,52 @@
 ``python -m humanoid_ik`` alike; each command lives in its own module of this package.
 
 Exit codes: 0 success; 1 a solve that did not converge; 2 bad input (one line on
-stderr, no traceback unless ``--debug``); 130 interrupted.
+stderr, no traceback unless ``--debug``, which is accepted before or after the command);
+130 interrupted (Ctrl-C); 143 terminated (SIGTERM, handled like Ctrl-C); 141 the reader
+of the output went away (``humanoid-ik scenes | head -1``: no message).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
+import threading
 import traceback
 from collections.abc import Sequence
 from importlib.metadata import version
 
-from humanoid_ik.cli import bench, dataset, scenes, solve, sweep
+from humanoid_ik.cli import (
+    bench,
+    dataset,
+    export,
+    inspect,
+    replay,
+    run,
+    scenes,
+    solve,
+    sweep,
+    view,
+)
 from humanoid_ik.cli.args import Parser
 from humanoid_ik.errors import HumanoidIKError
 
 __all__ = ["build_parser", "main"]
 
-_COMMANDS = (solve, bench, scenes, sweep, dataset)
+_COMMANDS = (solve, bench, inspect, scenes, run, replay, export, view, sweep, dataset)
+
+EXIT_INTERRUPTED = 130
+"""Ctrl-C: 128 + SIGINT."""
+EXIT_BROKEN_PIPE = 141
+"""The output's reader closed the pipe: 128 + SIGPIPE, what a shell shows."""
+EXIT_TERMINATED = 143
+"""SIGTERM: 128 + SIGTERM."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is, so it stops as Ctrl-C does (the frame
+    loop's and the commands' Ctrl-C handling applies), then exits 143."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -35,21 +63,49 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     for command in _COMMANDS:
         command.register(sub)
+    for command_parser in sub.choices.values():
+        command_parser.add_argument(
+            "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+        )
     return parser
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at the null device, so the interpreter's last flush into a closed pipe
+    raises nothing (the recipe of Python's ``signal`` documentation)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout is not a real file (a test's)
+        pass
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     args_list = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args_list
+    sigterms: list[int] = []
+
+    def on_sigterm(signum: int, frame: object) -> None:
+        sigterms.append(signum)
+        raise Terminated()
+
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, on_sigterm) if in_main_thread else None
     try:
         args = build_parser().parse_args(args_list)
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        # a command that handles Ctrl-C itself (render) stopped early on SIGTERM
+        return EXIT_TERMINATED if sigterms and code == EXIT_INTERRUPTED else code
     except HumanoidIKError as exc:
         if debug:
             traceback.print_exc()
         print(f"humanoid-ik: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        _quiet_stdout()
+        return EXIT_BROKEN_PIPE
     except OSError as exc:
         if debug:
             traceback.print_exc()
@@ -59,10 +115,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         return 2
     except KeyboardInterrupt:
-        print("humanoid-ik: interrupted", file=sys.stderr)
-        return 130
+        print(f"humanoid-ik: {'terminated' if sigterms else 'interrupted'}", file=sys.stderr)
+        return EXIT_TERMINATED if sigterms else EXIT_INTERRUPTED
     except SystemExit as exc:  # --help
         return int(exc.code or 0)
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -31,8 +32,18 @@ class UsageError(HumanoidIKError):
     """Bad command-line arguments."""
 
 
+_NUMBER_LIKE = re.compile(r"^-\.?\d")
+"""A token that is a value, not an option: ``-`` then a digit (``-0.1,0,1``, ``-.5``)."""
+
+
 class Parser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose errors are one line (a :class:`UsageError`)."""
+    """An ``ArgumentParser`` whose errors are one line (a :class:`UsageError`) and which
+    reads ``--target -0.1,0,1`` as a value (argparse alone takes only a single negative
+    number, ``-0.1``, for a value; no option of ours starts with a digit)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NUMBER_LIKE
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(f"{self.prog}: {message}")
@@ -135,15 +146,22 @@ def options(items: Sequence[str] | None) -> dict[str, Any]:
 
 
 def add_chain_args(p: argparse.ArgumentParser) -> None:
-    """``--model``, ``--site`` and ``--joints``: which chain a command works on."""
-    p.add_argument("--model", type=nonempty_path, help="MJCF path (default: the bundled humanoid)")
-    p.add_argument("--site", help="end-effector site (default: right_palm_site)")
+    """``--model``, ``--site`` or ``--body``, and ``--joints``: which chain a command
+    works on."""
+    p.add_argument(
+        "--model",
+        type=nonempty_path,
+        help="MJCF or URDF path (default: the bundled humanoid)",
+    )
+    ee = p.add_mutually_exclusive_group()
+    ee.add_argument("--site", help="end-effector site (default: right_palm_site)")
+    ee.add_argument("--body", help="end-effector body, e.g. a URDF link (instead of --site)")
     p.add_argument("--joints", help="comma-separated joint names (default: the path rule)")
 
 
 def chain_from_args(args: argparse.Namespace) -> Chain:
     """The chain named by :func:`add_chain_args`' arguments."""
-    return Chain(args.model, args.site, names(args.joints))
+    return Chain(args.model, args.site, names(args.joints), body=args.body)
 
 
 def check_writable(path: Path) -> None:

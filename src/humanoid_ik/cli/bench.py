@@ -1,4 +1,4 @@
-"""``humanoid-ik bench``: success rate and time per solve on random targets."""
+"""``humanoid-ik bench``: success rate, wall and CPU time per solve on random targets."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.core.checks import MAX_TARGETS
 from humanoid_ik.core.models import display_model
 from humanoid_ik.core.types import TARGET_KINDS
-from humanoid_ik.experiments.bench import run_bench
+from humanoid_ik.experiments.bench import MAX_REPEAT, run_bench
 from humanoid_ik.outputs.atomic import write_json
 
 __all__ = ["register"]
@@ -29,7 +29,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if args.json is not None:
         check_writable(Path(args.json))
     chain = chain_from_args(args)
-    bar = progress_bar(args.n, "solve")
+    bar = progress_bar(args.n * args.repeat, "solve")
 
     def progress(name: str, done: int, total: int) -> None:
         if bar is None:
@@ -48,13 +48,14 @@ def _cmd_bench(args: argparse.Namespace) -> int:
             args.seed,
             display_model(args.model),
             progress,
+            args.repeat,
         )
     finally:
         if bar is not None:
             bar.close()
     print(
         f"model {report.model}  site {report.site}  task {report.task}  n {report.n}  "
-        f"seed {report.seed}"
+        f"seed {report.seed}" + (f"  repeat {report.repeat}" if report.repeat > 1 else "")
     )
     print(report.table())
     if args.json is not None:
@@ -65,7 +66,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def register(subparsers: Any) -> None:
     """Add ``bench`` to the ``humanoid-ik`` subcommands."""
-    p = subparsers.add_parser("bench", help="success rate and time per solve on random targets")
+    p = subparsers.add_parser(
+        "bench", help="success rate, wall and CPU time per solve on random targets"
+    )
     add_chain_args(p)
     p.add_argument("--task", default="position", choices=list(TARGET_KINDS))
     p.add_argument("--solvers", metavar="a,b", help="solvers to run (default: all)")
@@ -76,6 +79,14 @@ def register(subparsers: Any) -> None:
         help=f"number of targets, at most {MAX_TARGETS:,} (default: 500)",
     )
     p.add_argument("--seed", type=int_at_least(0), default=0, help="target seed (default: 0)")
+    p.add_argument(
+        "--repeat",
+        type=int_in(1, MAX_REPEAT),
+        default=1,
+        metavar="K",
+        help=f"solve the targets K times and show the spread of the medians, K at most "
+        f"{MAX_REPEAT} (default: 1)",
+    )
     p.add_argument(
         "--json", type=nonempty_path, metavar="PATH", help="also write the results as JSON"
     )

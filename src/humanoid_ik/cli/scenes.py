@@ -1,7 +1,7 @@
 """The ``render`` and ``scenes`` subcommands of ``humanoid-ik``.
 
-``humanoid-ik render SCENE [--out DIR] [--solver NAME] [--frames N] [--width W]
-[--height H] [--camera NAME] [--fps F] [--gif] [--no-video]`` films a scene;
+``humanoid-ik render SCENE [--out DIR] [--solver NAME] [--frames N] [--until S]
+[--width W] [--height H] [--camera NAME] [--fps F] [--gif] [--no-video]`` films a scene;
 ``humanoid-ik scenes`` lists the bundled scenes, one line each. Heavy imports
 (MuJoCo's renderer, matplotlib) happen only when a command runs.
 """
@@ -9,9 +9,11 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from humanoid_ik.cli.args import UsageError, int_in, nonempty_path
 from humanoid_ik.cli.progress import progress_bar
@@ -24,10 +26,22 @@ from humanoid_ik.config.specs import (
 )
 from humanoid_ik.errors import RenderError
 
-__all__ = ["register"]
+if TYPE_CHECKING:
+    from humanoid_ik.config.specs import Scene
+    from humanoid_ik.run.metrics import Metrics
+
+__all__ = [
+    "add_scene_args",
+    "frame_size",
+    "print_summary",
+    "register",
+    "report_files",
+    "run_progress",
+    "scene_from_args",
+]
 
 
-def _size(text: str) -> int:
+def frame_size(text: str) -> int:
     """A frame width or height: even, :data:`MIN_IMAGE_SIZE` to :data:`MAX_IMAGE_SIZE`."""
     try:
         v = int(text)
@@ -82,83 +96,20 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_render(args: argparse.Namespace) -> int:
-    from humanoid_ik.config.scene import check_scene, load_scene
-    from humanoid_ik.outputs.render.backend import select_backend
-    from humanoid_ik.outputs.render.pipeline import check_output_dir, render_scene
-
-    scene = load_scene(args.scene)
-    if args.solver is not None:
-        from humanoid_ik.solvers import SOLVERS
-
-        if args.solver not in SOLVERS:
-            raise UsageError(f"--solver '{args.solver}' unknown; solvers: {', '.join(SOLVERS)}")
-    if args.camera is not None:
-        from humanoid_ik.core.models import load_model, model_cameras
-
-        cams = model_cameras(load_model(scene.model))
-        if args.camera not in cams:
-            raise UsageError(f"--camera '{args.camera}' not in model; cameras: {', '.join(cams)}")
-    scene = scene.with_overrides(
-        solver=args.solver,
-        fps=args.fps,
-        frames=args.frames,
-        width=args.width,
-        height=args.height,
-        camera=args.camera,
-        gif=True if args.gif else None,
-    )
-    check_scene(scene)
-    out = Path("renders") / scene.name if args.out is None else Path(args.out)
-    check_output_dir(out)
-    backend = select_backend()
-    if backend.note:
-        print(f"humanoid-ik: note: {backend.note}", file=sys.stderr)
-
-    bar = progress_bar(scene.n_frames if scene.n_frames > 1 else 0, "frame", scene.name)
-
-    def progress(done: int, total: int) -> None:
-        if bar is not None:
-            bar.update(done - bar.n)
-
+def _seconds(text: str) -> float:
+    """A time > 0 [s]."""
     try:
-        result = render_scene(scene, out, video=not args.no_video, progress=progress)
-    finally:
-        if bar is not None:
-            bar.close()
-    m = result.metrics
-    loop = sum(result.frame_times)
-    fps = result.frames / loop if loop > 0 else 0.0
-    print(
-        f"{scene.name}: {result.frames} frame(s) {scene.render.width}x{scene.render.height} "
-        f"camera {scene.render.camera}, {fps:.1f} frames/s ({result.backend.name})"
-    )
-    for s in m.summary():
-        err = s["max_position_error_reachable_m"]
-        share = s["on_target_when_reachable"]
-        err_txt = "no reachable frame" if err is None else f"max error {err * 1e3:.3f} mm"
-        share_txt = "" if share is None else f", on target {100 * share:.0f}%"
-        print(
-            f"  {s['effector']} -> {s['target']} ({s['solver']}): reachable "
-            f"{s['reachable_frames']}/{s['frames']}, {err_txt}{share_txt}, median solve "
-            f"{(s['median_solve_time_s'] or 0) * 1e3:.2f} ms"
-        )
-    for f in result.files():
-        print(f"wrote {f}")
-    if result.interrupted:
-        print(f"humanoid-ik: interrupted after {result.frames} frame(s)", file=sys.stderr)
-        return 130
-    return 0
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"expected a number of seconds > 0, got '{text}'")
+    return v
 
 
-def register(subparsers: Any) -> None:
-    """Add ``render`` and ``scenes`` to the ``humanoid-ik`` subcommands."""
-    p = subparsers.add_parser(
-        "render",
-        help="run a scene and film it (MP4, PNG frames, contact sheet, metrics)",
-        description="Run a scene file (or a bundled scene by name) and write its video, "
-        "frames, contact sheet and metrics into renders/<scene>/ (or --out).",
-    )
+def add_scene_args(p: argparse.ArgumentParser) -> None:
+    """``SCENE`` and what a run of it may change: ``--out``, ``--solver``, ``--frames``,
+    ``--until``, ``--fps`` (shared by ``render`` and ``run``)."""
     p.add_argument("scene", metavar="SCENE", help="a scene .toml file or a bundled scene name")
     p.add_argument(
         "--out",
@@ -171,12 +122,149 @@ def register(subparsers: Any) -> None:
         "--frames",
         type=int_in(1, MAX_FRAMES),
         metavar="N",
-        help=f"render N frames (at most {MAX_FRAMES:,})",
+        help=f"N frames spread over the whole scene (at most {MAX_FRAMES:,}); sets the frame rate",
     )
-    p.add_argument("--width", type=_size, metavar="W", help="frame width [px]")
-    p.add_argument("--height", type=_size, metavar="H", help="frame height [px]")
-    p.add_argument("--camera", metavar="NAME", help="a named camera of the model")
+    p.add_argument(
+        "--until", type=_seconds, metavar="S", help="stop the scene at S seconds (cut it short)"
+    )
     p.add_argument("--fps", type=_fps, metavar="F", help="frames per second")
+
+
+def scene_from_args(args: argparse.Namespace, **render: Any) -> tuple[Scene, Path]:
+    """The scene of :func:`add_scene_args`' arguments with the command line's choices
+    applied and checked, and its output folder (created and checked writable).
+
+    Args:
+        args: the parsed arguments.
+        render: render choices for :meth:`Scene.with_overrides` (width, height...).
+
+    Raises:
+        UsageError: an unknown solver, ``--until`` past the scene's end, ``--frames``
+            with ``--fps``.
+        SceneError: the scene (with the choices) does not check.
+    """
+    from humanoid_ik.config.scene import check_scene, load_scene
+    from humanoid_ik.outputs.record import check_output_dir
+
+    scene = load_scene(args.scene)
+    if args.solver is not None:
+        from humanoid_ik.solvers import SOLVERS
+
+        if args.solver not in SOLVERS:
+            raise UsageError(f"--solver '{args.solver}' unknown; solvers: {', '.join(SOLVERS)}")
+    if args.frames is not None and args.fps is not None:
+        raise UsageError(
+            f"--frames {args.frames} sets the frame rate (frames / duration); give --frames "
+            "or --fps, not both"
+        )
+    if args.until is not None and args.until > scene.duration:
+        raise UsageError(
+            f"--until {args.until:g} is after the end of scene '{scene.name}' "
+            f"({scene.duration:g} s); expected a time > 0 and <= {scene.duration:g}"
+        )
+    scene = scene.with_overrides(
+        solver=args.solver, fps=args.fps, frames=args.frames, until=args.until, **render
+    )
+    check_scene(scene)
+    out = Path("renders") / scene.name if args.out is None else Path(args.out)
+    check_output_dir(out)
+    return scene, out
+
+
+def run_progress(scene: Scene) -> tuple[Callable[[int, int], None], Callable[[], None]]:
+    """A progress callback ``(done, total)`` for a run of ``scene`` (a bar on a terminal)
+    and the function that closes the bar."""
+    bar = progress_bar(scene.n_frames if scene.n_frames > 1 else 0, "frame", scene.name)
+
+    def progress(done: int, total: int) -> None:
+        if bar is not None:
+            bar.update(done - bar.n)
+
+    def close() -> None:
+        if bar is not None:
+            bar.close()
+
+    return progress, close
+
+
+def print_summary(metrics: Metrics) -> None:
+    """One line per effector: reachable frames, worst error, share on target, solve time."""
+    for s in metrics.summary():
+        err = s["max_position_error_reachable_m"]
+        share = s["on_target_when_reachable"]
+        err_txt = "no reachable frame" if err is None else f"max error {err * 1e3:.3f} mm"
+        share_txt = "" if share is None else f", on target {100 * share:.0f}%"
+        print(
+            f"  {s['effector']} -> {s['target']} ({s['solver']}): reachable "
+            f"{s['reachable_frames']}/{s['frames']}, {err_txt}{share_txt}, median solve "
+            f"{(s['median_solve_time_s'] or 0) * 1e3:.2f} ms"
+        )
+
+
+def report_files(
+    files: Sequence[Path], notes: Sequence[str], interrupted: bool, frames: int
+) -> int:
+    """Print each note on stderr (``humanoid-ik: note: ...``), ``wrote <file>`` for each
+    file, and on Ctrl-C how many frames were done; returns the exit code (130 when
+    interrupted, else 0)."""
+    for note in notes:
+        print(f"humanoid-ik: note: {note}", file=sys.stderr)
+    for f in files:
+        print(f"wrote {f}")
+    if interrupted:
+        print(f"humanoid-ik: interrupted after {frames} frame(s)", file=sys.stderr)
+        return 130
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from humanoid_ik.outputs.render.backend import select_backend
+    from humanoid_ik.outputs.render.pipeline import render_scene
+
+    if args.camera is not None:
+        from humanoid_ik.config.scene import load_scene, scene_model
+        from humanoid_ik.core.models import model_cameras
+
+        cams = model_cameras(scene_model(load_scene(args.scene)))
+        if args.camera not in cams:
+            raise UsageError(f"--camera '{args.camera}' not in model; cameras: {', '.join(cams)}")
+    scene, out = scene_from_args(
+        args,
+        width=args.width,
+        height=args.height,
+        camera=args.camera,
+        gif=True if args.gif else None,
+    )
+    backend = select_backend()
+    if backend.note:
+        print(f"humanoid-ik: note: {backend.note}", file=sys.stderr)
+    progress, close = run_progress(scene)
+    try:
+        result = render_scene(scene, out, video=not args.no_video, progress=progress)
+    finally:
+        close()
+    loop = sum(result.frame_times)
+    fps = result.frames / loop if loop > 0 else 0.0
+    print(
+        f"{scene.name}: {result.frames} frame(s) {scene.render.width}x{scene.render.height} "
+        f"camera {scene.render.camera}, {fps:.1f} frames/s ({result.backend.name})"
+    )
+    print_summary(result.metrics)
+    return report_files(result.files(), result.notes, result.interrupted, result.frames)
+
+
+def register(subparsers: Any) -> None:
+    """Add ``render`` and ``scenes`` to the ``humanoid-ik`` subcommands."""
+    p = subparsers.add_parser(
+        "render",
+        help="run a scene and film it (MP4, PNG frames, contact sheet, metrics, trajectory)",
+        description="Run a scene file (or a bundled scene by name) and write its video, "
+        "frames, contact sheet, metrics and trajectory into renders/<scene>/ (or --out).",
+    )
+    add_scene_args(p)
+    p.add_argument("--width", type=frame_size, metavar="W", help="frame width [px]")
+    p.add_argument("--height", type=frame_size, metavar="H", help="frame height [px]")
+    p.add_argument("--camera", metavar="NAME", help="a named camera of the model")
     p.add_argument("--gif", action="store_true", help="also write an animated GIF")
     p.add_argument("--no-video", action="store_true", help="skip the MP4")
     p.set_defaults(func=_cmd_render)

@@ -9,8 +9,10 @@ from typing import Any
 import numpy as np
 
 from humanoid_ik.cli.args import add_chain_args, chain_from_args, floats, options
-from humanoid_ik.core.models import display_model
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.models import bundled_model_path, display_model
 from humanoid_ik.core.types import Target
+from humanoid_ik.experiments.inspection import range_hints
 from humanoid_ik.solvers import SOLVERS, solve
 
 __all__ = ["register"]
@@ -23,20 +25,25 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     )
     chain = chain_from_args(args)
     result = solve(chain, target, args.solver, **options(args.option))
+    hints = [] if result.converged else _hints(chain, args.model)
     if args.json:
         doc = {
             "model": display_model(args.model),
-            "site": chain.ee_name,
+            chain.ee_kind: chain.ee_name,
             "target": {
                 "position": target.position.tolist(),
                 "quat": None if target.quat is None else target.quat.tolist(),
             },
             **result.to_dict(chain.joint_names),
+            "hints": hints,
         }
         print(json.dumps(doc, indent=2))
     else:
         width = max(len(n) for n in chain.joint_names)
-        print(f"solver {result.solver}: {result.status} after {result.iterations} iteration(s)")
+        name = result.solver
+        if name != args.solver:  # the solver auto chose
+            name = f"{args.solver} -> {name}"
+        print(f"solver {name}: {result.status} after {result.iterations} iteration(s)")
         for name, v in zip(chain.joint_names, result.q, strict=True):
             print(f"  {name:<{width}}  {v:+.6f} rad  {np.degrees(v):+9.3f} deg")
         print(f"position error     {result.position_error:.3e} m")
@@ -44,7 +51,17 @@ def _cmd_solve(args: argparse.Namespace) -> int:
             print(f"orientation error  {result.orientation_error:.3e} rad")
         if result.message:
             print(f"note: {result.message}")
+        for hint in hints:
+            print(f"hint: {hint}")
     return 0 if result.converged else 1
+
+
+def _hints(chain: Chain, model: str | None) -> list[str]:
+    """What in the chain's joint ranges may explain a failed solve (ranges that look like
+    the wrong angle unit, joints without a range)."""
+    mine = {f"'{n}'" for n in chain.joint_names}
+    path = bundled_model_path() if model is None else model
+    return [h for h in range_hints(chain.model, path) if h.split()[1] in mine]
 
 
 def register(subparsers: Any) -> None:
@@ -54,10 +71,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--quat", metavar="W,X,Y,Z", help="target orientation (unit quaternion)")
     p.add_argument(
         "--solver",
-        default="dls",
+        default="auto",
         choices=list(SOLVERS),
         metavar="NAME",
-        help=f"one of: {', '.join(SOLVERS)} (default: dls)",
+        help=f"one of: {', '.join(SOLVERS)} (default: auto)",
     )
     add_chain_args(p)
     p.add_argument(

@@ -13,6 +13,7 @@ from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.config.sweep_file import load_sweep
 from humanoid_ik.experiments.sweep import damaged_records, read_records, run_sweep
 from humanoid_ik.experiments.sweep.executors import MAX_WORKERS
+from humanoid_ik.experiments.sweep.summary import percent
 
 __all__ = ["register"]
 
@@ -75,7 +76,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             errs = [r["max_error_m"] for r in rs if r["max_error_m"] is not None]
             print(
                 f"  {cfg:<{width}}  {len(rs):>4}  "
-                f"{_fmt(sum(succ) / len(succ) if succ else None, 100, '11.1f')}%  "
+                f"{percent(sum(succ) / len(succ) if succ else None, '11.1f')}%  "
                 f"{_fmt(ms[len(ms) // 2] if ms else None, 1, '9.3f')}  "
                 f"{_fmt(max(errs) if errs else None, 1, '13.3e')}"
             )

@@ -28,7 +28,7 @@ A scene is a TOML file (read with ``tomllib``)::
     # orientation = { quat = [0.7071, 0, -0.7071, 0] }   # makes it a pose target
 
     [[effectors]]
-    site = "right_palm_site"
+    site = "right_palm_site"           # or body = "tool_link" (a URDF link, an MJCF body)
     target = "ball"
     # task = "look_at"                 # aim the site's x axis at the target (gaze)
     # joints = [...]                   # default: the hinges from the site to the root
@@ -77,7 +77,12 @@ from humanoid_ik.config.toml import (
 )
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.checks import check_bool, check_choice, check_int, check_number
-from humanoid_ik.core.models import bundled_dir, bundled_model_path, load_model, model_cameras
+from humanoid_ik.core.models import (
+    bundled_dir,
+    bundled_model_path,
+    model_cameras,
+    staged_model,
+)
 from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.motion import MAX_KNOTS, MOTIONS, Motion, Orientation, RandomWalk, TargetTrack
 from humanoid_ik.solvers import SOLVERS, make_solver
@@ -96,6 +101,7 @@ __all__ = [
     "frames_limit",
     "load_scene",
     "parse_scene",
+    "scene_model",
 ]
 
 
@@ -134,13 +140,13 @@ def find_scene(name_or_path: str | os.PathLike) -> Path:
 _TOP = {
     "name": NAME,
     "description": "a string",
-    "model": "an MJCF path (relative to the scene file)",
+    "model": "an MJCF or URDF path (relative to the scene file)",
     "duration": "a number > 0 (seconds)",
     "fps": f"a number >= {MIN_FPS:g} and <= {MAX_FPS:g} (frames per second)",
     "solver": "a table with name (and options)",
     "render": "a table",
     "targets": "an array of tables [[targets]] with name and motion",
-    "effectors": "an array of tables [[effectors]] with site and target",
+    "effectors": "an array of tables [[effectors]] with site (or body) and target",
 }
 _SOLVER = {"name": "a solver name", "options": "a table of solver options"}
 _SIZE = f"an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE} (pixels)"
@@ -160,6 +166,7 @@ _TARGET = {
 }
 _EFFECTOR = {
     "site": "a site name",
+    "body": "a body name",
     "target": "a target name",
     "task": f"one of {', '.join(repr(t) for t in TASKS)}",
     "joints": "a list of joint names",
@@ -300,15 +307,18 @@ def _targets(r: TomlReader, doc: Mapping[str, Any]) -> list[TargetTrack]:
 def _effectors(
     r: TomlReader, doc: Mapping[str, Any], targets: list[TargetTrack]
 ) -> list[EffectorSpec]:
-    """The ``[[effectors]]``: distinct sites, each tracking one of ``targets``."""
+    """The ``[[effectors]]``: distinct sites or bodies, each tracking one of ``targets``."""
     names = [t.name for t in targets]
     effectors: list[EffectorSpec] = []
     for i, tbl in enumerate(_array_of_tables(r, doc, "effectors")):
         key = f"effectors[{i}]"
-        r.keys(key, tbl, _EFFECTOR, required=("site", "target"))
-        site = r.string(f"{key}.site", tbl["site"], _EFFECTOR["site"])
-        if any(e.site == site for e in effectors):
-            raise r.fail(f"{key}.site", f"expected a site no other effector uses, got {site!r}")
+        r.keys(key, tbl, _EFFECTOR, required=("target",))
+        site, body = _end_effector(r, key, tbl)
+        for kind, name in (("site", site), ("body", body)):
+            if name is not None and any(getattr(e, kind) == name for e in effectors):
+                raise r.fail(
+                    f"{key}.{kind}", f"expected a {kind} no other effector uses, got {name!r}"
+                )
         target = tbl["target"]
         if target not in names:
             raise r.expect(f"{key}.target", f"one of {', '.join(map(repr, names))}", target)
@@ -325,8 +335,18 @@ def _effectors(
                 f"{key}.task",
                 f"expected 'reach' for pose target {target!r} (look_at aims at a point)",
             )
-        effectors.append(EffectorSpec(site, target, task, joints, own))
+        effectors.append(EffectorSpec(site, target, task, joints, own, body))
     return effectors
+
+
+def _end_effector(r: TomlReader, key: str, tbl: Mapping[str, Any]) -> tuple[str | None, str | None]:
+    """An effector table's ``site`` or ``body`` (exactly one)."""
+    if ("site" in tbl) == ("body" in tbl):
+        got = "both" if "site" in tbl else "neither"
+        raise r.fail(f"{key}.site", f"expected a site or a body (one of them), got {got}")
+    if "site" in tbl:
+        return r.string(f"{key}.site", tbl["site"], _EFFECTOR["site"]), None
+    return None, r.string(f"{key}.body", tbl["body"], _EFFECTOR["body"])
 
 
 def _model_path(r: TomlReader, doc: Mapping[str, Any], base: Path | None) -> Path:
@@ -336,7 +356,7 @@ def _model_path(r: TomlReader, doc: Mapping[str, Any], base: Path | None) -> Pat
     rel = Path(r.string("model", doc["model"], _TOP["model"]))
     model = rel if rel.is_absolute() else (base or Path(".")) / rel
     if not model.is_file():
-        raise r.fail("model", f"expected an MJCF file, got {doc['model']!r} (not found)")
+        raise r.fail("model", f"expected an MJCF or URDF file, got {doc['model']!r} (not found)")
     return model
 
 
@@ -388,7 +408,7 @@ def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -
     duration = r.call("", check_number, "duration", doc["duration"], low=0.0, strict=True)
     fps = r.call("", check_number, "fps", doc.get("fps", 30), low=MIN_FPS, high=MAX_FPS)
     _check_duration(r, duration, fps)
-    solver = _solver_spec(r, "solver", doc.get("solver", {"name": "dls"}))
+    solver = _solver_spec(r, "solver", doc.get("solver", {"name": "auto"}))
     render = _render_spec(r, doc.get("render", {}))
     targets = _targets(r, doc)
     effectors = _effectors(r, doc, targets)
@@ -418,13 +438,16 @@ def _check_effector(
     effector index) gains its joints."""
     eff = scene.effectors[i]
     key = f"effectors[{i}]"
-    sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, eff.site)
-    if sid < 0:
-        sites = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, k) for k in range(model.nsite)]
-        valid = ", ".join(sorted(s for s in sites if s))
-        raise r.expect(f"{key}.site", f"a site of the model ({valid})", eff.site)
+    objtype, count = {
+        "site": (mujoco.mjtObj.mjOBJ_SITE, model.nsite),
+        "body": (mujoco.mjtObj.mjOBJ_BODY, model.nbody),
+    }[eff.kind]
+    if mujoco.mj_name2id(model, objtype, eff.name) < 0:
+        found = [mujoco.mj_id2name(model, objtype, k) for k in range(count)]
+        valid = ", ".join(sorted(s for s in found if s)) or "none"
+        raise r.expect(f"{key}.{eff.kind}", f"a {eff.kind} of the model ({valid})", eff.name)
     try:
-        chain = Chain(model, eff.site, eff.joints)
+        chain = Chain(model, eff.site, eff.joints, body=eff.body)
     except HumanoidIKError as exc:
         raise r.fail(f"{key}.joints", str(exc)) from None
     for j in chain.joint_names:
@@ -441,7 +464,7 @@ def _check_effector(
     if eff.task == "reach" and spec.name == "look_at":
         raise r.fail(
             where,
-            f"solver 'look_at' aims a site at a point; {key} ({eff.site}) reaches "
+            f"solver 'look_at' aims a site at a point; {key} ({eff.name}) reaches "
             "(task = 'reach'); expected a reaching solver or task = 'look_at'",
         )
     solver = spec.make()
@@ -449,12 +472,12 @@ def _check_effector(
     if eff.task == "look_at" and solver.reaches and not several:
         raise r.fail(
             where,
-            f"solver '{spec.name}' moves a site onto a point; {key} ({eff.site}) aims "
+            f"solver '{spec.name}' moves a site onto a point; {key} ({eff.name}) aims "
             "(task = 'look_at'); expected 'look_at' or 'mink'",
         )
     reason = None if several else solver.applicable(chain, target.is_pose)
     if reason is not None:
-        raise r.fail(where, f"solver '{spec.name}' cannot drive {key} ({eff.site}): {reason}")
+        raise r.fail(where, f"solver '{spec.name}' cannot drive {key} ({eff.name}): {reason}")
     return chain
 
 
@@ -503,6 +526,20 @@ def _check_sizes(r: TomlReader, scene: Scene) -> None:
             )
 
 
+def scene_model(scene: Scene) -> mujoco.MjModel:
+    """The model a scene runs on: its MJCF or URDF file, placed in the default stage
+    where it lacks a light, a floor or the cameras (:func:`~humanoid_ik.core.models.
+    staged_model`), the cameras framing the model and the targets' paths.
+
+    Raises:
+        SceneError: the model file does not compile (``model`` key).
+    """
+    try:
+        return staged_model(scene.model, scene.target_points())
+    except HumanoidIKError as exc:
+        raise SceneError(scene.source, "model", str(exc)) from None
+
+
 def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain]:
     """Check a scene against its model and return one chain per effector.
 
@@ -512,7 +549,7 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
 
     Args:
         scene: the scene.
-        model: its compiled model (compiled from ``scene.model`` when ``None``).
+        model: its compiled model (:func:`scene_model` when ``None``).
 
     Returns:
         The chains, in effector order, all on ``model``.
@@ -523,10 +560,7 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
     r = TomlReader(scene.source, SceneError)
     _check_sizes(r, scene)
     if model is None:
-        try:
-            model = load_model(scene.model)
-        except HumanoidIKError as exc:
-            raise r.fail("model", str(exc)) from None
+        model = scene_model(scene)
     owner: dict[str, int] = {}
     chains = [_check_effector(r, scene, model, i, owner) for i in range(len(scene.effectors))]
     _check_render(r, scene, model)

@@ -10,6 +10,9 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from humanoid_ik.config.toml import display_path
 from humanoid_ik.core.models import bundled_model_path
 from humanoid_ik.errors import SceneError, show_value
@@ -82,24 +85,36 @@ class SolverSpec:
 
 @dataclass(frozen=True)
 class EffectorSpec:
-    """An end effector (a site and the joints that move it) and the target it tracks.
+    """An end effector (a site or a body, and the joints that move it) and the target it
+    tracks.
 
     Attributes:
-        site: the end-effector site, e.g. ``right_palm_site``.
+        site: the end-effector site, e.g. ``right_palm_site`` (``None`` when ``body``
+            names the end effector).
         target: the name of the target it tracks.
         task: ``reach`` or ``look_at`` (aim the site's x axis at the target).
-        joints: the chain's joints, or ``None`` for every hinge from the site to the root.
+        joints: the chain's joints, or ``None`` for every hinge from the end effector to
+            the root.
         solver: this effector's own solver, or ``None`` for the scene's solver (a
             ``look_at`` effector then uses ``look_at``).
+        body: the end-effector body, e.g. ``tool_link`` of a URDF, instead of a site.
     """
 
-    site: str
+    site: str | None
     target: str
     task: str = "reach"
     joints: tuple[str, ...] | None = None
     solver: SolverSpec | None = None
+    body: str | None = None
 
     def __post_init__(self) -> None:
+        if (self.site is None) == (self.body is None):
+            raise SceneError(
+                "<effector>",
+                "site",
+                f"expected a site or a body, got site {show_value(self.site)} and body "
+                f"{show_value(self.body)}",
+            )
         if self.task not in TASKS:
             raise SceneError(
                 "<effector>",
@@ -108,6 +123,18 @@ class EffectorSpec:
             )
         if self.joints is not None:
             object.__setattr__(self, "joints", tuple(self.joints))
+
+    @property
+    def name(self) -> str:
+        """The end effector's name: its site, else its body."""
+        name = self.site if self.site is not None else self.body
+        assert name is not None  # __post_init__
+        return name
+
+    @property
+    def kind(self) -> str:
+        """``site`` or ``body``."""
+        return "site" if self.site is not None else "body"
 
 
 @dataclass(frozen=True)
@@ -175,6 +202,15 @@ class Scene:
         """Frames in a full run: ``max(1, round(duration * fps))``."""
         return max(1, round(self.duration * self.fps))
 
+    def target_points(self, samples: int = 32) -> NDArray[np.float64]:
+        """Each target's position at ``samples`` times spread over the run, stacked
+        ``(len(targets) * samples, 3)`` [m]: what a stage's cameras frame besides the
+        model (:func:`humanoid_ik.core.models.staged_model`)."""
+        last = (self.n_frames - 1) / self.fps
+        times = np.linspace(0.0, last, max(1, samples))
+        pts = [t.motion.position(float(x)) for t in self.targets for x in times]
+        return np.asarray(pts, dtype=np.float64).reshape(-1, 3)
+
     @property
     def source(self) -> str:
         """The scene's file for messages, or ``<scene 'name'>``."""
@@ -207,6 +243,7 @@ class Scene:
         *,
         solver: str | SolverSpec | None = None,
         frames: int | None = None,
+        until: float | None = None,
         fps: float | None = None,
         width: int | None = None,
         height: int | None = None,
@@ -216,8 +253,9 @@ class Scene:
         """A copy with command-line choices applied (``None`` keeps the scene's value).
 
         ``solver`` replaces the scene's default solver (its options are dropped unless a
-        :class:`SolverSpec` is given); ``frames`` shortens or lengthens the run to that
-        many frames at the scene's (or the given) frame rate.
+        :class:`SolverSpec` is given); ``until`` cuts the run at that time [s];
+        ``frames`` spreads that many frames over the (cut) duration, setting the frame
+        rate to ``frames / duration``.
         """
         out = self
         if solver is not None:
@@ -225,8 +263,10 @@ class Scene:
             out = replace(out, solver=spec)
         if fps is not None:
             out = replace(out, fps=float(fps))
+        if until is not None:
+            out = replace(out, duration=float(until))
         if frames is not None:
-            out = replace(out, duration=frames / out.fps)
+            out = replace(out, fps=frames / out.duration)
         r = out.render
         r = replace(
             r,

@@ -20,7 +20,8 @@ A sweep is a TOML file (read with ``tomllib``)::
     name = "right_pose"
     task = "pose"                      # position or pose (default pose)
     n = 200
-    site = "right_palm_site"           # optional; also model (relative path) and joints
+    site = "right_palm_site"           # optional (or body = "tool_link"); also model
+                                       # (an MJCF or URDF path, relative) and joints
 
 The grid is ``(scenes + target sets) x solver configurations x seeds``, at most
 :data:`MAX_JOBS` jobs. A seed draws a target set; for a scene it replaces the seed of
@@ -199,7 +200,8 @@ _TARGETS = {
     "task": "one of 'position', 'pose'",
     "n": "an integer >= 1",
     "site": "a site name",
-    "model": "an MJCF path (relative to the sweep file)",
+    "body": "a body name (instead of site)",
+    "model": "an MJCF or URDF path (relative to the sweep file)",
     "joints": "a list of joint names",
 }
 
@@ -326,8 +328,8 @@ def _collect(main: Path, found: list[Path]) -> None:
         for el in root.iter():
             if el.tag == "compiler":
                 dirs.update(v for k in _COMPILER_DIRS if (v := el.get(k)))
-            ref = el.get("file")
-            if ref is None:
+            ref = el.get("file") or (el.get("filename") if el.tag == "mesh" else None)
+            if ref is None:  # (a URDF mesh names its file in filename)
                 continue
             if el.tag == "include":
                 todo.extend(_existing(ref, (main.parent, f.parent)))
@@ -407,8 +409,13 @@ def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict
         task = tbl.get("task", "pose")
         if task not in TARGET_KINDS:
             raise r.expect(f"{key}.task", _TARGETS["task"], task)
-        site = tbl.get("site", DEFAULT_SITE)
-        if not isinstance(site, str) or not site:
+        if "site" in tbl and "body" in tbl:
+            raise r.fail(f"{key}.body", "expected a site or a body, not both")
+        body = tbl.get("body")
+        if body is not None and (not isinstance(body, str) or not body):
+            raise r.expect(f"{key}.body", _TARGETS["body"], body)
+        site = tbl.get("site", DEFAULT_SITE if body is None else None)
+        if body is None and (not isinstance(site, str) or not site):
             raise r.expect(f"{key}.site", _TARGETS["site"], site)
         model = tbl.get("model")
         if model is not None and (not isinstance(model, str) or not model):
@@ -422,10 +429,12 @@ def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict
             raise r.expect(f"{key}.joints", _TARGETS["joints"], joints)
         location = bundled_model_path() if model is None else (base / model).resolve()
         try:
-            Chain(location, site, joints)
+            Chain(location, site, joints, body=body)
         except HumanoidIKError as exc:
             kind = getattr(exc, "kind", "")
-            sub = {"site": "site", "joint": "joints"}.get(kind, "model" if model else "")
+            sub = {"site": "site", "body": "body", "joint": "joints"}.get(
+                kind, "model" if model else ""
+            )
             raise r.fail(f"{key}.{sub}" if sub else key, str(exc)) from None
         out.append(
             {
@@ -438,6 +447,8 @@ def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict
                     "joints": joints,
                     "model": model,
                     "model_sha256": model_digest(location),
+                    # only when given, so the ids of site target sets stay as they were
+                    **({} if body is None else {"body": body}),
                 },
                 "location": str(location),
                 "seeded": True,

@@ -4,21 +4,47 @@ name and renamed into place only when complete, so a final name never holds half
 A temporary name carries the writer's process id (``.NAME.PID.TID.tmp.EXT``); a run
 killed with SIGKILL cannot remove its temporaries, so every later write of the same
 final name removes those whose process is gone (:func:`remove_stale`).
+
+A run's outputs (``render``, ``run``, ``replay``) are one set: :func:`staged_outputs`
+has the run write every file into a fresh staging folder inside the output folder, then
+:func:`publish` replaces the previous run's files (listed in the folder's manifest,
+:data:`MANIFEST`) with the new ones, with SIGINT and SIGTERM held back and a lock
+against another run publishing into the same folder. A run that fails or is stopped
+while writing leaves the previous set untouched; the folder never holds a mix of two
+runs' files. Files the manifest does not list (the user's own) are never touched.
 """
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import re
 import shutil
+import signal
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_dir", "atomic_path", "pid_alive", "remove_stale", "write_json", "write_text"]
+__all__ = [
+    "MANIFEST",
+    "atomic_dir",
+    "atomic_path",
+    "pid_alive",
+    "publish",
+    "published",
+    "remove_stale",
+    "staged_outputs",
+    "write_json",
+    "write_text",
+]
+
+MANIFEST = ".humanoid-ik-outputs.json"
+"""The file in an output folder that lists the files of the last run published there."""
+_LOCK = ".humanoid-ik-outputs.lock"
+_STAGING = "run"  # the staging folder is ``.run.PID.TID.tmpdir`` inside the output folder
 
 _TEMP = re.compile(r"^\.(?P<stem>.+)\.(?P<pid>\d+)\.(?P<tid>\d+)\.tmp(?:dir|\..*)?$")
 
@@ -46,7 +72,7 @@ def remove_stale(path: str | os.PathLike) -> list[Path]:
     """Remove the temporaries of ``path`` (files or folders) left by processes that no
     longer run; returns what was removed. Temporaries of live writers are kept."""
     final = Path(path)
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(final.parent.iterdir())
     except OSError:
@@ -108,3 +134,58 @@ def write_text(path: str | os.PathLike, text: str) -> Path:
 def write_json(path: str | os.PathLike, doc: Any, indent: int = 1) -> Path:
     """Write ``doc`` as JSON (and a final newline) to ``path`` atomically; returns the path."""
     return write_text(path, json.dumps(doc, indent=indent) + "\n")
+
+
+def published(folder: str | os.PathLike) -> list[str]:
+    """The names of the files the last run published in ``folder`` (its manifest)."""
+    try:
+        doc = json.loads((Path(folder) / MANIFEST).read_text())
+        names = doc["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    if not isinstance(names, list):
+        return []
+    return [n for n in names if isinstance(n, str) and n == Path(n).name and n[:1] != "."]
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM held back for the block (delivered when it ends); a no-op
+    outside the main thread, where Python runs no signal handler anyway."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def publish(staging: str | os.PathLike, folder: str | os.PathLike) -> list[Path]:
+    """Move every file of ``staging`` into ``folder``, in place of the files the previous
+    run published there, and record them in the folder's :data:`MANIFEST`; returns the
+    final paths. Runs with SIGINT and SIGTERM held back and with the folder's lock held,
+    so neither a Ctrl-C nor a concurrent run can leave two runs' files mixed."""
+    src, dst = Path(staging), Path(folder)
+    names = sorted(p.name for p in src.iterdir() if p.is_file() and not p.name.startswith("."))
+    with _signals_held(), open(dst / _LOCK, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        for old in set(published(dst)) - set(names):
+            (dst / old).unlink(missing_ok=True)
+        for name in names:
+            os.replace(src / name, dst / name)
+        write_json(dst / MANIFEST, {"files": names})
+    return [dst / n for n in names]
+
+
+@contextmanager
+def staged_outputs(folder: str | os.PathLike) -> Iterator[Path]:
+    """A fresh staging folder for one run's files inside the output ``folder`` (which
+    must exist); when the block succeeds its files are published (:func:`publish`),
+    and whatever happens the staging folder is removed (a SIGKILLed run's one by the
+    next run in the same folder)."""
+    with atomic_dir(Path(folder) / _STAGING) as staging:
+        yield staging
+        publish(staging, folder)

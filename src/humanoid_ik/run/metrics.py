@@ -178,7 +178,7 @@ class Metrics:
             er = err[reach]
             out.append(
                 {
-                    "effector": eff.site,
+                    "effector": eff.name,
                     "target": eff.target,
                     "task": eff.task,
                     "solver": self.solvers[k],
@@ -204,7 +204,7 @@ class Metrics:
             "frames": len(self.frames),
             "interrupted": self.interrupted,
             "effectors": [
-                {"site": e.site, "target": e.target, "task": e.task, "solver": s}
+                {e.kind: e.name, "target": e.target, "task": e.task, "solver": s}
                 for e, s in zip(sc.effectors, self.solvers, strict=True)
             ],
             "summary": self.summary(),

@@ -33,18 +33,20 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.config.scene import EffectorSpec, Scene, SolverSpec, check_scene
+from humanoid_ik.config.scene import EffectorSpec, Scene, SolverSpec, check_scene, scene_model
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import gaze_error, on_target, orientation_error
-from humanoid_ik.core.models import load_model, reset_to_home
+from humanoid_ik.core.models import reset_to_home
 from humanoid_ik.core.types import EffectorGoal, IKResult, Target
 from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.run.metrics import EffectorSample, FrameRecord, Metrics
+from humanoid_ik.run.trajectory import TrajectoryRecorder
 
 __all__ = [
     "FrameSink",
     "SceneRunner",
     "chain_reach",
+    "frame_loop",
     "run_scene",
 ]
 
@@ -77,6 +79,42 @@ class FrameSink(Protocol):
         ``mj_forward``; read it now, the next frame overwrites it)."""
 
 
+def frame_loop(
+    n: int,
+    step: Callable[[int], FrameRecord],
+    data: mujoco.MjData,
+    sinks: Sequence[FrameSink],
+    on_frame: Callable[[FrameRecord], None] | None = None,
+    stop: Callable[[], bool] | None = None,
+) -> tuple[list[float], bool]:
+    """THE frame loop: for ``i`` in ``0 .. n-1``, ``record = step(i)`` (which leaves the
+    frame in ``data``), every sink in order gets ``(record, data)``, then ``on_frame``;
+    ``stop`` (asked before each frame) ends it early.
+
+    Used by :meth:`SceneRunner.run` (``step`` solves), by a replay (``step`` reads a
+    trajectory) and by the live viewer (``stop``: the window was closed).
+
+    Returns:
+        The wall time [s] of each frame's step and sinks, and whether Ctrl-C
+        (``KeyboardInterrupt``) stopped the loop early. Any other exception propagates.
+    """
+    times: list[float] = []
+    try:
+        for i in range(n):
+            if stop is not None and stop():
+                break
+            t0 = time.perf_counter()
+            rec = step(i)
+            for sink in sinks:
+                sink.add_frame(rec, data)
+            times.append(time.perf_counter() - t0)
+            if on_frame is not None:
+                on_frame(rec)
+    except KeyboardInterrupt:
+        return times, True
+    return times, False
+
+
 class SceneRunner:
     """Runs a scene frame by frame on its own ``MjModel``/``MjData``.
 
@@ -96,7 +134,7 @@ class SceneRunner:
         self.scene = scene
         if model is None:
             try:
-                model = load_model(scene.model)
+                model = scene_model(scene)
             except HumanoidIKError as exc:
                 raise SceneError(scene.source, "model", str(exc)) from None
         self.model = model
@@ -156,6 +194,13 @@ class SceneRunner:
         """Each effector's solver, as ``name`` or ``name(options)``."""
         return [s.label() for s in self.specs]
 
+    def recorder(self) -> TrajectoryRecorder:
+        """A frame sink that records this runner's :class:`Trajectory` (hand it to
+        :meth:`run`, then call its ``trajectory()``)."""
+        return TrajectoryRecorder(
+            self.scene, self.model, self.chains, self.targets, self.solver_labels()
+        )
+
     def reset(self) -> None:
         """Back to the home keyframe (warm starts forgotten)."""
         m, d = self.model, self.data
@@ -169,11 +214,19 @@ class SceneRunner:
         """Time of frame ``index`` [s]."""
         return index / self.scene.fps
 
-    def step(self, index: int) -> FrameRecord:
-        """Solve and apply frame ``index`` (warm-started from the previous call)."""
-        t = self.time_of(index)
+    def step(
+        self, index: int, targets: Sequence[Target] | None = None, t: float | None = None
+    ) -> FrameRecord:
+        """Solve and apply frame ``index`` (warm-started from the previous call).
+
+        Args:
+            index: the frame.
+            targets: each effector's target (default: the scene's tracks at ``t``).
+            t: the frame's time [s] (default: :meth:`time_of` ``index``).
+        """
+        t = self.time_of(index) if t is None else float(t)
         m, d = self.model, self.data
-        targets = [trk.at(t) for trk in self.targets]
+        targets = [trk.at(t) for trk in self.targets] if targets is None else list(targets)
         results: list[IKResult | None] = [None] * len(self.chains)
         times = [0.0] * len(self.chains)
         for solver, members in self._groups:
@@ -212,9 +265,10 @@ class SceneRunner:
     def _measure(self, i: int, target: Target, res: IKResult, dt: float) -> EffectorSample:
         eff: EffectorSpec = self.scene.effectors[i]
         d = self.data
-        sid = self._site_ids[i]
-        p = d.site_xpos[sid].copy()
-        R = d.site_xmat[sid].reshape(3, 3)
+        sid = self._site_ids[i]  # a site's id, or a body's for a body end effector
+        site = self.chains[i].ee_kind == "site"
+        p = (d.site_xpos if site else d.xpos)[sid].copy()
+        R = (d.site_xmat if site else d.xmat)[sid].reshape(3, 3)
         pd = target.position
         orient: float | None = None
         if eff.task == "look_at":
@@ -232,7 +286,7 @@ class SceneRunner:
             base, reach = self._reach[i]
             reachable = float(np.linalg.norm(pd - base)) <= reach
         return EffectorSample(
-            effector=eff.site,
+            effector=eff.name,
             target_name=eff.target,
             task=eff.task,
             target=np.array(pd),
@@ -274,18 +328,9 @@ class SceneRunner:
         n = self.n_frames if frames is None else frames
         self.reset()
         metrics = Metrics(self.scene, self.solver_labels())
-        outputs = (*sinks, metrics)
-        try:
-            for i in range(n):
-                t0 = time.perf_counter()
-                rec = self.step(i)
-                for sink in outputs:
-                    sink.add_frame(rec, self.data)
-                metrics.frame_times.append(time.perf_counter() - t0)
-                if on_frame is not None:
-                    on_frame(rec)
-        except KeyboardInterrupt:
-            metrics.interrupted = True
+        metrics.frame_times, metrics.interrupted = frame_loop(
+            n, self.step, self.data, (*sinks, metrics), on_frame
+        )
         return metrics
 
 

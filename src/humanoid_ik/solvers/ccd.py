@@ -63,6 +63,13 @@ class CCDOptions(SolverOptions):
     stall_window: int = 15
     seed: int = 0
     pattern_moves: bool = True
+    BOUNDS: ClassVar[Mapping[str, tuple[float, float]]] = {
+        "max_iterations": (0, 100_000),
+        "restarts": (0, 1_000),
+        "stall_window": (0, 100_000),
+    }
+    """Sweeps, restarts and the stall window bound a solve's time (``nudge`` is checked
+    to lie in (0, 1] when the options are made)."""
 
     def __post_init__(self) -> None:
         _check_nudge(self.nudge)

@@ -13,9 +13,11 @@ from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.errors import SolverError, choices
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.two_link import TwoLink
+from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.ccd import CCD
 from humanoid_ik.solvers.jacobian.dls import DLS
+from humanoid_ik.solvers.jacobian.lm import LM
 from humanoid_ik.solvers.jacobian.pseudoinverse import PseudoInverse
 from humanoid_ik.solvers.jacobian.transpose import JacobianTranspose
 from humanoid_ik.solvers.look_at import LookAt
@@ -25,7 +27,18 @@ __all__ = ["SOLVERS", "make_solver", "solve"]
 
 SOLVERS: dict[str, type[Solver]] = {
     cls.name: cls
-    for cls in (TwoLink, CCD, JacobianTranspose, PseudoInverse, DLS, LookAt, MinkSolver, ClosedForm)
+    for cls in (
+        Auto,
+        TwoLink,
+        CCD,
+        JacobianTranspose,
+        PseudoInverse,
+        DLS,
+        LM,
+        LookAt,
+        MinkSolver,
+        ClosedForm,
+    )
 }
 
 
@@ -45,7 +58,7 @@ def make_solver(name: str, **options: Any) -> Solver:
 def solve(
     chain: Chain,
     target: Target | ArrayLike,
-    solver: str | Solver = "dls",
+    solver: str | Solver = "auto",
     *,
     quat: ArrayLike | None = None,
     q0: ArrayLike | None = None,
@@ -58,8 +71,9 @@ def solve(
     Args:
         chain: the kinematic chain.
         target: a :class:`Target` or a position ``(3,)`` [m].
-        solver: a solver name (``two_link``, ``ccd``, ``jacobian_transpose``,
-            ``pseudoinverse``, ``dls``, ``look_at``) or a solver object.
+        solver: a solver name (:data:`SOLVERS`; default ``auto``, which picks
+            ``closed_form``, ``two_link`` or ``lm`` and records its choice) or a
+            solver object.
         quat: target orientation, wxyz ``(4,)``, for a position given as an array.
         q0: start joint values ``(n,)``; default the chain's current ones (those of
             ``data`` when given).

@@ -94,7 +94,7 @@ def _run_targets(job: Job) -> dict[str, Any]:
         raise SweepError(None, "seed", f"target-set job {job.describe()} needs a seed")
     _check_model(job, job.location)
     p = job.param
-    chain = Chain(job.location, p["site"], p["joints"])
+    chain = Chain(job.location, p["site"], p["joints"], body=p.get("body"))
     pose = p["task"] == "pose"
     solver = make_solver(job.solver, **job.options_dict)
     reason = not_reaching(solver, chain, pose)

@@ -19,7 +19,28 @@ from humanoid_ik.config.sweep_file import Sweep
 from humanoid_ik.experiments.sweep.jobs import COLUMNS, TIMING_COLUMNS
 from humanoid_ik.outputs.atomic import atomic_path, write_json, write_text
 
-__all__ = ["plot_summary", "status_counts", "summary_rows", "write_summary"]
+__all__ = ["percent", "plot_summary", "status_counts", "summary_rows", "write_summary"]
+
+
+def percent(share: float | None, spec: str = ".1f") -> str:
+    """A share in [0, 1] as a percentage, rounded down at the last shown digit, so a
+    share below 1 never reads 100 (``0.9975`` -> ``99.7``; ``1.0`` -> ``100.0``);
+    ``-`` for ``None``.
+
+    Args:
+        share: the share, e.g. a success rate.
+        spec: the format of the percentage, e.g. ``"11.1f"`` (fixed point: ``f``).
+    """
+    if share is None:
+        width = spec.split(".")[0].lstrip(">")
+        return format("-", f">{width}") if width else "-"
+    decimals = int(spec.rsplit(".", 1)[1].rstrip("f")) if "." in spec else 0
+    scale = 10**decimals
+    # floor with a tolerance for binary fractions (0.29 * 1000 = 289.99999999999997)
+    shown = math.floor(share * 100 * scale + 1e-6) / scale
+    if share < 1.0:
+        shown = min(shown, 100.0 - 1.0 / scale)
+    return format(shown, spec)
 
 
 def summary_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:

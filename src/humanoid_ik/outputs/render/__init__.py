@@ -15,7 +15,8 @@ Modules:
 - ``video``: :class:`VideoWriter`, the MP4 through ``imageio-ffmpeg``;
 - ``stills``: PNG snapshots, the contact sheet and the GIF;
 - ``plots``: :func:`plot_metrics`;
-- ``pipeline``: :func:`render_scene`, :class:`RenderOutputs`, :func:`check_output_dir`.
+- ``pipeline``: :func:`render_scene`, :class:`RenderOutputs`; :func:`replay_trajectory`
+  (a recorded trajectory filmed without solving), :class:`FilmOutputs`.
 """
 
 from humanoid_ik.outputs.render.backend import INSTALL_HINT, Backend, select_backend
@@ -29,8 +30,15 @@ from humanoid_ik.outputs.render.drawing import (
     FrameRenderer,
     camera_id,
     project,
+    track_quats,
 )
-from humanoid_ik.outputs.render.pipeline import RenderOutputs, check_output_dir, render_scene
+from humanoid_ik.outputs.render.pipeline import (
+    FilmOutputs,
+    RenderOutputs,
+    check_output_dir,
+    render_scene,
+    replay_trajectory,
+)
 from humanoid_ik.outputs.render.plots import plot_metrics
 from humanoid_ik.outputs.render.video import VideoWriter
 
@@ -43,6 +51,7 @@ __all__ = [
     "TRAIL_WIDTH",
     "Backend",
     "Film",
+    "FilmOutputs",
     "FrameRenderer",
     "RenderOutputs",
     "VideoWriter",
@@ -51,5 +60,7 @@ __all__ = [
     "plot_metrics",
     "project",
     "render_scene",
+    "replay_trajectory",
     "select_backend",
+    "track_quats",
 ]

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import mujoco
@@ -31,8 +31,10 @@ __all__ = [
     "Film",
     "FrameRenderer",
     "ImageSink",
+    "Quats",
     "camera_id",
     "project",
+    "track_quats",
 ]
 
 COLORS: dict[str, tuple[float, float, float, float]] = {
@@ -236,7 +238,7 @@ class FrameRenderer:
                 drawn.add(s.target_name)
                 self._sphere(scene, s.target, MARKER_RADIUS, color)
                 self._sphere(scene, s.target, HALO_RADIUS, (*color[:3], 0.3))
-            site = data.site_xpos[self._site_id(s.effector)]
+            site = self._effector_xpos(data, s.effector)
             if s.task == "look_at":
                 self._segment(scene, site, s.achieved, 2.0, COLORS["gaze"])
             elif not s.reachable:
@@ -253,11 +255,14 @@ class FrameRenderer:
                 end = s.target + 0.09 * R[:, axis]
                 self._segment(scene, s.target, end, 3.0, (*rgb, 1.0))
 
-    def _site_id(self, name: str) -> int:
+    def _effector_xpos(self, data: mujoco.MjData, name: str) -> np.ndarray:
+        """Where the end effector ``name`` is: a site, else a body of that name."""
         sid = self._sites.get(name)
         if sid is None:
             sid = self._sites[name] = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, name)
-        return sid
+        if sid >= 0:
+            return data.site_xpos[sid]
+        return data.xpos[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)]
 
     def render(
         self,
@@ -287,34 +292,42 @@ class ImageSink(Protocol):
         by the caller; keep it as is)."""
 
 
+Quats = Callable[[FrameRecord], Sequence[NDArray[np.float64] | None]]
+"""Each effector's target orientation (wxyz) or ``None`` at a frame."""
+
+
+def track_quats(targets: Sequence[TargetTrack]) -> Quats:
+    """The target orientations of a scene's tracks at a frame's time."""
+
+    def quats(record: FrameRecord) -> list[NDArray[np.float64] | None]:
+        return [
+            None if trk.orientation is None else trk.orientation.quat_at(record.time)
+            for trk in targets
+        ]
+
+    return quats
+
+
 class Film:
     """The runner's frame sink that draws each frame and hands the picture on.
 
-    Per frame: the targets' orientations at the frame's time, one
-    :meth:`FrameRenderer.render`, then every image sink in order.
+    Per frame: the targets' orientations at the frame, one :meth:`FrameRenderer.render`,
+    then every image sink in order.
 
     Args:
         renderer: draws the frames.
-        targets: each effector's target track (scene order), for pose targets' axes.
+        quats: each effector's target orientation at a frame, for pose targets' axes
+            (:func:`track_quats` of a scene's tracks, or a trajectory's).
         images: where each picture goes.
     """
 
-    def __init__(
-        self,
-        renderer: FrameRenderer,
-        targets: Sequence[TargetTrack],
-        images: Sequence[ImageSink],
-    ):
+    def __init__(self, renderer: FrameRenderer, quats: Quats, images: Sequence[ImageSink]):
         self.renderer = renderer
-        self.targets = list(targets)
+        self.quats = quats
         self.images = list(images)
 
     def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
         """Render frame ``record`` of ``data`` and hand it to every image sink."""
-        quats = [
-            None if trk.orientation is None else trk.orientation.quat_at(record.time)
-            for trk in self.targets
-        ]
-        image = self.renderer.render(data, record, quats)
+        image = self.renderer.render(data, record, self.quats(record))
         for sink in self.images:
             sink.add_image(record, image)

@@ -1,45 +1,65 @@
 """Filming a scene: :func:`render_scene` runs it through :meth:`SceneRunner.run
 <humanoid_ik.run.runner.SceneRunner.run>`, the one frame loop, with a :class:`Film`
-beside the metrics as a frame sink (drawing each frame into the video, the stills and
-the GIF), then writes every output of the ``render`` command atomically."""
+beside the metrics and the trajectory recorder as frame sinks (drawing each frame into
+the video, the stills and the GIF), then writes every output of the ``render`` command
+atomically. :func:`replay_trajectory` films a recorded trajectory the same way, its
+frames read by a :class:`~humanoid_ik.run.replay.TrajectoryPlayer` instead of solved."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import mujoco
+
 from humanoid_ik.config.scene import Scene
-from humanoid_ik.errors import RenderError
-from humanoid_ik.outputs.atomic import write_json, write_text
+from humanoid_ik.config.specs import RenderSpec
+from humanoid_ik.outputs.atomic import staged_outputs
+from humanoid_ik.outputs.record import (
+    check_output_dir,
+    progress_reporter,
+    relocated,
+    write_metrics,
+)
 from humanoid_ik.outputs.render.backend import Backend, select_backend
-from humanoid_ik.outputs.render.drawing import Film, FrameRenderer
+from humanoid_ik.outputs.render.drawing import Film, FrameRenderer, Quats, track_quats
 from humanoid_ik.outputs.render.plots import plot_metrics
-from humanoid_ik.outputs.render.stills import GifFrames, Stills, sheet_indices, snapshot_indices
+from humanoid_ik.outputs.render.stills import GifFrames, Stills, sheet_indices, snapshot_plan
 from humanoid_ik.outputs.render.video import VideoWriter
-from humanoid_ik.run.metrics import FrameRecord, Metrics
-from humanoid_ik.run.runner import SceneRunner
+from humanoid_ik.outputs.trajectory import write_trajectory
+from humanoid_ik.run.metrics import Metrics
+from humanoid_ik.run.replay import TrajectoryPlayer
+from humanoid_ik.run.runner import FrameSink, SceneRunner
+from humanoid_ik.run.trajectory import Trajectory
 
-__all__ = ["RenderOutputs", "check_output_dir", "render_scene"]
+__all__ = [
+    "RenderOutputs",
+    "FilmOutputs",
+    "check_output_dir",
+    "render_scene",
+    "replay_trajectory",
+]
 
 
-@dataclass(frozen=True)
-class RenderOutputs:
-    """What a render wrote.
+@dataclass(frozen=True, kw_only=True)
+class FilmOutputs:
+    """What filming a run wrote (a replay's outputs; a render adds its own).
 
     Attributes:
         folder: the output folder.
         frames: frames rendered.
         interrupted: Ctrl-C stopped the run early (the outputs hold the frames so far).
-        video, gif, contact_sheet, csv, json, plot: the files (``None`` when not written).
+        video, gif, contact_sheet: the files (``None`` when not written).
         snapshots: the PNG frames.
         backend: the OpenGL backend.
-        frame_times: wall time of each frame in the runner's loop [s] (solve, draw,
-            render, hand-off to the encoder, metrics).
-        total_time: wall time of the whole render including set-up and writing [s].
-        metrics: the run's metrics.
+        frame_times: wall time of each frame in the frame loop [s] (solve or read,
+            draw, render, hand-off to the encoder, the other sinks).
+        notes: one line each about what was not rendered as asked (a snapshot time
+            after the last frame, snapshot times on the same frame).
     """
 
     folder: Path
@@ -49,69 +69,86 @@ class RenderOutputs:
     gif: Path | None
     snapshots: tuple[Path, ...]
     contact_sheet: Path | None
-    csv: Path
-    json: Path
-    plot: Path | None
     backend: Backend
     frame_times: tuple[float, ...] = field(repr=False)
-    total_time: float
-    metrics: Metrics = field(repr=False, compare=False)
+    notes: tuple[str, ...] = ()
 
     def files(self) -> list[Path]:
         """Every file written."""
-        out = [self.video, self.gif, *self.snapshots, self.contact_sheet, self.csv, self.json]
-        out.append(self.plot)
+        out = [self.video, self.gif, *self.snapshots, self.contact_sheet]
         return [p for p in out if p is not None]
 
 
-def check_output_dir(folder: str | os.PathLike) -> Path:
-    """Create ``folder`` if needed and check a file can be written there.
+@dataclass(frozen=True, kw_only=True)
+class RenderOutputs(FilmOutputs):
+    """What a render wrote: :class:`FilmOutputs` and the run's files.
 
-    Raises:
-        RenderError: it cannot be created or written.
+    Attributes:
+        csv, json, plot: the metrics files (``plot`` is ``None`` when not written).
+        trajectory: ``trajectory.npz`` and ``trajectory.csv`` (empty when not recorded).
+        total_time: wall time of the whole render including set-up and writing [s].
+        metrics: the run's metrics.
     """
-    import tempfile
 
-    p = Path(folder)
-    try:
-        p.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise RenderError(f"cannot create output folder '{p}': {exc.strerror or exc}") from None
-    try:
-        fd, name = tempfile.mkstemp(prefix=".write-check.", dir=p)
-        os.close(fd)
-        os.unlink(name)
-    except OSError as exc:
-        raise RenderError(f"output folder '{p}' is not writable: {exc.strerror or exc}") from None
-    return p
+    csv: Path
+    json: Path
+    plot: Path | None
+    total_time: float
+    metrics: Metrics = field(repr=False, compare=False)
+    trajectory: tuple[Path, ...] = ()
+
+    def files(self) -> list[Path]:
+        """Every file written."""
+        out = [*super().files(), self.csv, self.json, self.plot, *self.trajectory]
+        return [p for p in out if p is not None]
 
 
-def _run_filmed(
-    runner: SceneRunner,
-    film: Film,
-    writer: VideoWriter | None,
-    progress: Callable[[int, int], None] | None,
-) -> tuple[Metrics, Path | None]:
-    """Run the whole scene with ``film`` as a sink, then finish the video.
+@dataclass
+class _Filmed:
+    """What filming a run left: the video, the stills, the GIF, and any notes."""
 
-    Returns:
-        The metrics and the video (``None`` when not written). Ctrl-C keeps the frames so
-        far and a valid, shorter video; any other exception removes the video's
-        temporary file (nothing under the final name) and propagates.
+    video: Path | None
+    snapshots: tuple[Path, ...]
+    sheet: Path | None
+    gif: Path | None
+    notes: tuple[str, ...]
+
+
+def _film(
+    model: mujoco.MjModel,
+    rs: RenderSpec,
+    fps: float,
+    n: int,
+    folder: Path,
+    name: str,
+    video: bool,
+    quats: Quats,
+    run: Callable[[FrameSink], object],
+) -> tuple[_Filmed, Backend]:
+    """Film ``n`` frames at ``fps``: ``run(film)`` runs the frame loop with the film as a
+    sink; then the video is finished and the stills and the GIF written.
+
+    A failed run leaves no video under its final name (its temporary file is removed)
+    and the exception propagates; Ctrl-C (handled by the frame loop) keeps the frames so
+    far and a valid, shorter video.
     """
-    n = runner.n_frames
-
-    def on_frame(record: FrameRecord) -> None:
-        if progress is not None:
-            progress(record.index + 1, n)
-
-    try:
-        metrics = runner.run(on_frame=on_frame, sinks=[film])
-    except BaseException:  # a failed run leaves no video under the final name
-        if writer is not None:
-            writer.close(abort=True)
-        raise
-    return metrics, None if writer is None else writer.close()
+    snaps, notes = snapshot_plan(rs.snapshots, fps, n)
+    stills = Stills(snaps, sheet_indices(rs.contact_sheet, n))
+    gif = GifFrames(fps) if rs.gif else None
+    with FrameRenderer(model, rs.width, rs.height, rs.camera, round(rs.trail * fps)) as fr:
+        backend = select_backend()
+        writer = VideoWriter(folder / f"{name}.mp4", rs.width, rs.height, fps) if video else None
+        images = [sink for sink in (writer, stills, gif) if sink is not None]
+        try:
+            run(Film(fr, quats, images))
+        except BaseException:  # a failed run leaves no video under the final name
+            if writer is not None:
+                writer.close(abort=True)
+            raise
+        video_path = None if writer is None else writer.close()
+    snapshots, sheet_path = stills.write(folder)
+    gif_path = None if gif is None else gif.write(folder / f"{name}.gif")
+    return _Filmed(video_path, snapshots, sheet_path, gif_path, tuple(notes)), backend
 
 
 def render_scene(
@@ -120,22 +157,26 @@ def render_scene(
     *,
     video: bool = True,
     plot: bool = True,
+    trajectory: bool = True,
     progress: Callable[[int, int], None] | None = None,
 ) -> RenderOutputs:
     """Run a scene and film it.
 
     Writes into ``out_dir`` (default ``renders/<scene name>``): ``<name>.mp4``,
     ``<name>.gif`` (when ``scene.render.gif``), ``frame_NNNN.png`` snapshots,
-    ``contact_sheet.png``, ``metrics.csv``, ``metrics.json`` and ``metrics.png``. Every
-    file is written under a temporary name and renamed when complete. Ctrl-C stops the
-    run early and the outputs are written for the frames rendered so far
-    (``interrupted`` is then set).
+    ``contact_sheet.png``, ``metrics.csv``, ``metrics.json``, ``metrics.png``,
+    ``trajectory.npz`` and ``trajectory.csv``. The files are written into a staging
+    folder and replace the previous run's in ``out_dir`` as one set when all are
+    complete (``outputs/atomic.py``: :func:`staged_outputs`); a failed run leaves the
+    previous ones untouched. Ctrl-C (or SIGTERM) stops the run early and the outputs
+    are written for the frames rendered so far (``interrupted`` is then set).
 
     Args:
         scene: the scene (apply command-line choices with :meth:`Scene.with_overrides`).
         out_dir: the output folder.
         video: write the MP4.
         plot: write the metrics plot.
+        trajectory: record and write the trajectory (a sink of the same loop).
         progress: called with ``(frames done, frames total)`` after each frame.
 
     Raises:
@@ -147,40 +188,115 @@ def render_scene(
     folder = check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
     runner = SceneRunner(scene)
     n = runner.n_frames
-    rs = scene.render
-    name = scene.name
-    stills = Stills(
-        snapshot_indices(rs.snapshots, scene.fps, n), sheet_indices(rs.contact_sheet, n)
-    )
-    gif = GifFrames(scene.fps) if rs.gif else None
-    trail = round(rs.trail * scene.fps)
-    with FrameRenderer(runner.model, rs.width, rs.height, rs.camera, trail) as fr:
-        backend = select_backend()
-        writer = (
-            VideoWriter(folder / f"{name}.mp4", rs.width, rs.height, scene.fps) if video else None
+    recorder = runner.recorder() if trajectory else None
+    done: list[Metrics] = []
+
+    def run(film: FrameSink) -> None:
+        sinks = [film] if recorder is None else [film, recorder]
+        done.append(runner.run(on_frame=progress_reporter(progress, n), sinks=sinks))
+
+    with staged_outputs(folder) as stage:
+        filmed, backend = _film(
+            runner.model,
+            scene.render,
+            scene.fps,
+            n,
+            stage,
+            scene.name,
+            video,
+            track_quats(runner.targets),
+            run,
         )
-        images = [sink for sink in (writer, stills, gif) if sink is not None]
-        metrics, video_path = _run_filmed(
-            runner, Film(fr, runner.targets, images), writer, progress
+        metrics = done[0]
+        csv_path, json_path = write_metrics(metrics, stage)
+        plot_path = plot_metrics(metrics, stage / "metrics.png") if plot and len(metrics) else None
+        traj_files: tuple[Path, ...] = ()
+        if recorder is not None:
+            traj_files = write_trajectory(recorder.trajectory(metrics.interrupted), stage)
+        result = RenderOutputs(
+            folder=stage,
+            frames=len(metrics),
+            interrupted=metrics.interrupted,
+            video=filmed.video,
+            gif=filmed.gif,
+            snapshots=filmed.snapshots,
+            contact_sheet=filmed.sheet,
+            csv=csv_path,
+            json=json_path,
+            plot=plot_path,
+            backend=backend,
+            frame_times=tuple(metrics.frame_times),
+            total_time=0.0,
+            metrics=metrics,
+            trajectory=traj_files,
+            notes=filmed.notes,
         )
-    snapshots, sheet_path = stills.write(folder)
-    gif_path = None if gif is None else gif.write(folder / f"{name}.gif")
-    csv_path = write_text(folder / "metrics.csv", metrics.csv_text())
-    json_path = write_json(folder / "metrics.json", metrics.to_dict())
-    plot_path = plot_metrics(metrics, folder / "metrics.png") if plot and len(metrics) else None
-    return RenderOutputs(
-        folder=folder,
-        frames=len(metrics),
-        interrupted=metrics.interrupted,
-        video=video_path,
-        gif=gif_path,
-        snapshots=snapshots,
-        contact_sheet=sheet_path,
-        csv=csv_path,
-        json=json_path,
-        plot=plot_path,
-        backend=backend,
-        frame_times=tuple(metrics.frame_times),
-        total_time=time.perf_counter() - t_start,
-        metrics=metrics,
+    return dataclasses.replace(
+        relocated(result, stage, folder), total_time=time.perf_counter() - t_start
     )
+
+
+def replay_trajectory(
+    trajectory: Trajectory,
+    model: mujoco.MjModel,
+    out_dir: str | os.PathLike,
+    *,
+    digest: str | None,
+    render: RenderSpec | None = None,
+    video: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+) -> FilmOutputs:
+    """Film a trajectory without solving: the same video, PNG snapshots, contact sheet
+    (and GIF) as the render that recorded it, published into ``out_dir`` as one set
+    (:func:`~humanoid_ik.outputs.atomic.staged_outputs`).
+
+    Args:
+        trajectory: what to play.
+        model: the model it was recorded on.
+        out_dir: the output folder.
+        digest: the model file's digest, checked against the trajectory's (``None``:
+            only the joints are checked).
+        render: how to film it (default: as the trajectory's scene was filmed).
+        video: write the MP4.
+        progress: called with ``(frames done, frames total)`` after each frame.
+
+    Raises:
+        TrajectoryFileError: the trajectory does not fit the model.
+        RenderError: the folder cannot be written, the camera does not exist, or no
+            OpenGL backend works.
+    """
+    player = TrajectoryPlayer(trajectory, model, digest)
+    folder = check_output_dir(out_dir)
+    n = player.n_frames
+    done: list[tuple[list[float], bool]] = []
+
+    def run(film: FrameSink) -> None:
+        done.append(player.run([film], on_frame=progress_reporter(progress, n)))
+
+    rs = trajectory.render if render is None else render
+    with staged_outputs(folder) as stage:
+        filmed, backend = _film(
+            model,
+            rs,
+            trajectory.fps,
+            n,
+            stage,
+            trajectory.scene,
+            video,
+            lambda record: trajectory.quats(record.index),
+            run,
+        )
+        times, interrupted = done[0]
+        result = FilmOutputs(
+            folder=stage,
+            frames=len(times),
+            interrupted=interrupted,
+            video=filmed.video,
+            gif=filmed.gif,
+            snapshots=filmed.snapshots,
+            contact_sheet=filmed.sheet,
+            backend=backend,
+            frame_times=tuple(times),
+            notes=filmed.notes,
+        )
+    return relocated(result, stage, folder)

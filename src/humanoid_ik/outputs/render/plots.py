@@ -31,7 +31,7 @@ def plot_metrics(metrics: Metrics, path: str | os.PathLike) -> Path:
     ax_e, ax_t = fig.subplots(2, 1, sharex=True)
     times = np.array([f.time for f in metrics.frames])
     for k, eff in enumerate(metrics.scene.effectors):
-        label = f"{eff.site} ({metrics.solvers[k]})"
+        label = f"{eff.name} ({metrics.solvers[k]})"
         rgb = TRAIL_COLORS[k % len(TRAIL_COLORS)]
         err = np.maximum(metrics.series(k, "position_error") * 1e3, 1e-6)
         ax_e.plot(times, err, color=rgb, label=label, lw=1.4)

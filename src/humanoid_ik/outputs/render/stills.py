@@ -21,6 +21,7 @@ __all__ = [
     "Stills",
     "sheet_indices",
     "snapshot_indices",
+    "snapshot_plan",
     "write_contact_sheet",
     "write_gif",
     "write_png",
@@ -112,11 +113,40 @@ def write_gif(path: Path, frames: Sequence[NDArray[np.uint8]], frame_ms: int) ->
 def snapshot_indices(times: Sequence[float], fps: float, n: int) -> list[int]:
     """The frames saved as PNG: those nearest ``times`` [s] at ``fps`` [1/s] (clipped to the
     last of ``n`` frames), or without ``times`` four frames spread over the run."""
-    if times:
-        idx = {min(n - 1, round(t * fps)) for t in times}
-    else:
-        idx = {round(k * (n - 1) / 3) for k in range(4)} if n > 1 else {0}
-    return sorted(idx)
+    return snapshot_plan(times, fps, n)[0]
+
+
+def snapshot_plan(times: Sequence[float], fps: float, n: int) -> tuple[list[int], list[str]]:
+    """:func:`snapshot_indices` and a note for every snapshot time that does not get a
+    frame of its own, so none is dropped silently: a time after the last rendered frame
+    (the last frame is saved for it) and times that fall on the same frame.
+
+    Returns:
+        The frame indices, and the notes (one line each).
+    """
+    if not times:
+        return (sorted({round(k * (n - 1) / 3) for k in range(4)}) if n > 1 else [0]), []
+    notes: list[str] = []
+    by_frame: dict[int, list[float]] = {}
+    late = [t for t in times if round(t * fps) > n - 1]
+    for t in times:
+        if t not in late:
+            by_frame.setdefault(round(t * fps), []).append(t)
+    for i, ts in sorted(by_frame.items()):
+        if len(ts) > 1:
+            shown = ", ".join(f"{t:g} s" for t in ts)
+            notes.append(
+                f"snapshots at {shown} fall on the same frame #{i} ({i / fps:.2f} s at "
+                f"{fps:g} frames/s); one PNG"
+            )
+    if late:
+        shown = ", ".join(f"{t:g} s" for t in late)
+        notes.append(
+            f"snapshot(s) at {shown} after the last rendered frame #{n - 1} "
+            f"({(n - 1) / fps:.2f} s); that frame is saved for them"
+        )
+        by_frame.setdefault(n - 1, [])
+    return sorted(by_frame), notes
 
 
 def sheet_indices(count: int, n: int) -> list[int]:

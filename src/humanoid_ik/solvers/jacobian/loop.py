@@ -12,17 +12,18 @@ library (:mod:`humanoid_ik.solvers.jacobian.seeds`) whose FK lies nearest the ta
 with seeded random in-range poses. The best pose seen is returned. A step that is not
 finite (an option so large that it overflows) ends that start like a stall.
 
-The options' upper bounds (:data:`OPTION_BOUNDS`) keep a solve finite in time, memory
-and arithmetic; a value beyond one is a :class:`~humanoid_ik.errors.SolverError` naming
-it.
+The options' bounds (:data:`OPTION_BOUNDS`) keep a solve finite in time, memory and
+arithmetic; a value beyond one is a :class:`~humanoid_ik.errors.SolverError` naming it
+and the bound.
 """
 
 from __future__ import annotations
 
 import math
 from abc import abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -31,24 +32,25 @@ from numpy.typing import NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.types import IKResult, Status, Target
-from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.base import Solver
-from humanoid_ik.solvers.jacobian.seeds import seed_library
+from humanoid_ik.solvers.jacobian.seeds import restart_poses, seed_library
 from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["OPTION_BOUNDS", "JacobianOptions", "JacobianSolver"]
 
-OPTION_BOUNDS: dict[str, float] = {
-    "max_iterations": 100_000,
-    "restarts": 1_000,
-    "stall_window": 100_000,
-    "nullspace_gain": 1.0,
+OPTION_BOUNDS: dict[str, tuple[float, float]] = {
+    "max_iterations": (0, 100_000),
+    "restarts": (0, 1_000),
+    "stall_window": (0, 100_000),
+    "library_seeds": (0, 4_000),
+    "nullspace_gain": (0.0, 1.0),
 }
-"""Upper bound of an option of the Jacobian family (the lower bound is 0, checked for
-every solver): iterations, restarts and the stall window bound a solve's time and
-memory; a ``nullspace_gain`` of 1 already moves all the way to home in the null space,
-and more overshoots. Other options are unbounded: a value so large that a step
-overflows ends that start (see the module's docstring)."""
+"""``(lower, upper)`` bounds of the Jacobian family's options (``JacobianOptions.BOUNDS``,
+checked by :meth:`SolverOptions.parse`): iterations, restarts and the stall window
+bound a solve's time and memory; the seed library holds 4,000 poses; a
+``nullspace_gain`` of 1 already moves all the way to home in the null space, and more
+overshoots. Other options are unbounded: a value so large that a step overflows ends
+that start (see the module's docstring)."""
 
 
 @dataclass(frozen=True)
@@ -72,6 +74,7 @@ class JacobianOptions(SolverOptions):
     stall_window: int = 8
     seed: int = 0
     library_seeds: int = 8
+    BOUNDS: ClassVar[Mapping[str, tuple[float, float]]] = OPTION_BOUNDS
 
 
 class JacobianSolver(Solver):
@@ -80,17 +83,6 @@ class JacobianSolver(Solver):
     supports_orientation: ClassVar[bool] = True
     Options: ClassVar[type[SolverOptions]] = JacobianOptions
     options: JacobianOptions
-
-    def __init__(self, **options: Any):
-        super().__init__(**options)
-        for key, high in OPTION_BOUNDS.items():
-            value = getattr(self.options, key, None)
-            if value is not None and value > high:
-                kind = "an integer" if isinstance(value, int) else "a finite number"
-                raise SolverError(
-                    f"option '{key}' of solver '{self.name}' must be {kind} >= 0 and "
-                    f"<= {high:g}, got {value!r}"
-                )
 
     def prepare(self, chain: Chain) -> None:
         """Build the chain's seed library (used by the restarts) before any timed solve."""
@@ -110,19 +102,9 @@ class JacobianSolver(Solver):
 
     def starts(self, chain: Chain, q0: NDArray[np.float64], target: Target | None = None):
         """``q0``, then library poses nearest ``target`` alternating with seeded random ones
-        (the library's nearest poses may share one blocked basin; random ones do not)."""
-        yield q0.copy()
-        rng = np.random.default_rng(self.options.seed)
-        near: Any = ()
-        if self.options.restarts and target is not None and self.options.library_seeds:
-            near = seed_library(chain).nearest(target, self.options.library_seeds)
-        used = 0
-        for k in range(self.options.restarts):
-            if k % 2 == 0 and used < len(near):
-                used += 1
-                yield near[used - 1].copy()
-            else:
-                yield chain.random_q(rng)
+        (:func:`~humanoid_ik.solvers.jacobian.seeds.restart_poses`)."""
+        o = self.options
+        return restart_poses(chain, q0, target, o.restarts, o.library_seeds, o.seed)
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
         m, d = chain.model, chain.data

@@ -8,13 +8,15 @@ vectors and their FK (from MuJoCo), built once per chain.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import Target
 
-__all__ = ["SeedLibrary", "seed_library"]
+__all__ = ["SeedLibrary", "restart_poses", "seed_library"]
 
 
 class SeedLibrary:
@@ -55,3 +57,30 @@ def seed_library(chain: Chain, size: int = 4000, seed: int = 7) -> SeedLibrary:
     """The chain's library of ``size`` poses, built on first use and kept with the chain
     (:meth:`Chain.derived`)."""
     return chain.derived(("seed_library", size, seed), lambda c: SeedLibrary(c, size, seed))
+
+
+def restart_poses(
+    chain: Chain,
+    q0: NDArray[np.float64],
+    target: Target | None,
+    restarts: int,
+    library_seeds: int,
+    seed: int,
+) -> Iterator[NDArray[np.float64]]:
+    """The starts of a local solver: ``q0``, then ``restarts`` poses, the library's
+    ``library_seeds`` poses nearest ``target`` alternating with seeded random in-range
+    ones (the library's nearest poses may share one blocked basin; random ones do not).
+    Each pose is a fresh array the caller may change."""
+    yield q0.copy()
+    rng: np.random.Generator | None = None  # made when first needed: it costs a solve's time
+    near: NDArray[np.float64] | tuple[()] = ()
+    if restarts and target is not None and library_seeds:
+        near = seed_library(chain).nearest(target, library_seeds)
+    used = 0
+    for k in range(restarts):
+        if k % 2 == 0 and used < len(near):
+            used += 1
+            yield near[used - 1].copy()
+        else:
+            rng = np.random.default_rng(seed) if rng is None else rng
+            yield chain.random_q(rng)

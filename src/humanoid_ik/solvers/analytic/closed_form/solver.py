@@ -4,6 +4,7 @@ what that path leaves (out of reach, out of range, gimbal lock)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -32,6 +33,10 @@ class ClosedFormOptions(SolverOptions):
     """
 
     swivel: float | None = None
+    BOUNDS: ClassVar[Mapping[str, tuple[float, float]]] = {
+        "swivel": (-2.0 * math.pi, 2.0 * math.pi)
+    }
+    """A swivel is an angle: one turn either way names every elbow position."""
 
     def __post_init__(self) -> None:
         sw = self.swivel

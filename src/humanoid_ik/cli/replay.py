@@ -1,0 +1,82 @@
+"""The ``replay`` subcommand of ``humanoid-ik``: film a trajectory file without solving.
+
+``humanoid-ik replay TRAJECTORY [--out DIR] [--camera NAME] [--width W] [--height H]
+[--model PATH] [--gif] [--no-video]`` writes the same video, PNG snapshots and contact
+sheet as the render that recorded it, into ``renders/<scene>_replay/`` (or ``--out``).
+A trajectory recorded on another model (other joints, or another digest of the model
+file) is refused in one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from humanoid_ik.cli.args import UsageError, nonempty_path
+from humanoid_ik.cli.scenes import frame_size, report_files
+
+__all__ = ["register"]
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from humanoid_ik.core.models import model_cameras
+    from humanoid_ik.outputs.record import check_output_dir
+    from humanoid_ik.outputs.render.backend import select_backend
+    from humanoid_ik.outputs.render.pipeline import replay_trajectory
+    from humanoid_ik.outputs.trajectory import open_trajectory
+
+    traj, model, digest = open_trajectory(args.trajectory, args.model, staged=True)
+    rs = traj.render
+    rs = replace(
+        rs,
+        camera=rs.camera if args.camera is None else args.camera,
+        width=rs.width if args.width is None else args.width,
+        height=rs.height if args.height is None else args.height,
+        gif=rs.gif or args.gif,
+    )
+    cams = model_cameras(model)
+    if rs.camera not in cams:
+        raise UsageError(f"--camera '{rs.camera}' not in model; cameras: {', '.join(cams)}")
+    out = Path("renders") / f"{traj.scene}_replay" if args.out is None else Path(args.out)
+    check_output_dir(out)
+    backend = select_backend()
+    if backend.note:
+        print(f"humanoid-ik: note: {backend.note}", file=sys.stderr)
+    result = replay_trajectory(traj, model, out, digest=digest, render=rs, video=not args.no_video)
+    print(
+        f"{traj.scene}: replayed {result.frames} frame(s) {rs.width}x{rs.height} camera "
+        f"{rs.camera} ({result.backend.name})"
+    )
+    return report_files(result.files(), result.notes, result.interrupted, result.frames)
+
+
+def register(subparsers: Any) -> None:
+    """Add ``replay`` to the ``humanoid-ik`` subcommands."""
+    p = subparsers.add_parser(
+        "replay",
+        help="film a trajectory file without solving (MP4, PNG frames, contact sheet)",
+        description="Render a trajectory.npz (or .csv) written by render or run, without "
+        "solving anything: the same video, frames and contact sheet as its render.",
+    )
+    p.add_argument("trajectory", metavar="TRAJECTORY", help="a trajectory .npz or .csv file")
+    p.add_argument(
+        "--out",
+        type=nonempty_path,
+        metavar="DIR",
+        help="output folder (default: renders/<scene>_replay)",
+    )
+    p.add_argument("--camera", metavar="NAME", help="a named camera of the model")
+    p.add_argument("--width", type=frame_size, metavar="W", help="frame width [px]")
+    p.add_argument("--height", type=frame_size, metavar="H", help="frame height [px]")
+    p.add_argument(
+        "--model",
+        type=nonempty_path,
+        metavar="PATH",
+        help="the model file it was recorded on (default: the one it names)",
+    )
+    p.add_argument("--gif", action="store_true", help="also write an animated GIF")
+    p.add_argument("--no-video", action="store_true", help="skip the MP4")
+    p.set_defaults(func=_cmd_replay)

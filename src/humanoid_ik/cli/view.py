@@ -1,0 +1,115 @@
+"""The ``view`` subcommand of ``humanoid-ik``: MuJoCo's interactive viewer, live.
+
+``humanoid-ik view [SCENE | --model PATH --site NAME] [--solver NAME] [--duration S]
+[--out DIR]`` opens the viewer with the targets as mocap bodies: the scene's motions
+play (space pauses them), any target can be dragged (double-click it, then Ctrl +
+right-drag; Backspace hands it back to its motion) and the solver tracks it live. With
+``--model``/``--site`` there is one target, still at the site's home position until
+dragged. ``--out`` writes the trajectory of the frames shown on exit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from humanoid_ik.cli.args import UsageError, nonempty_path
+from humanoid_ik.cli.scenes import report_files
+
+__all__ = ["register"]
+
+
+def _point_scene(args: argparse.Namespace) -> Any:
+    """A one-target scene on ``--model`` at ``--site``: the target waits at the site's
+    home position until dragged."""
+    from humanoid_ik.config.specs import EffectorSpec, Scene, SolverSpec
+    from humanoid_ik.core.chain import Chain
+    from humanoid_ik.core.models import bundled_model_path
+    from humanoid_ik.motion import TargetTrack
+    from humanoid_ik.motion.paths import Points
+
+    chain = Chain(args.model, args.site)
+    home = chain.position.copy()
+    return Scene(
+        name="view",
+        duration=60.0,
+        fps=30.0,
+        solver=SolverSpec(args.solver or "dls"),
+        targets=(TargetTrack("target", Points(points=home[None, :])),),
+        effectors=(EffectorSpec(chain.ee_name, "target"),),
+        model=Path(args.model) if args.model is not None else bundled_model_path(),
+    )
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from humanoid_ik.config.scene import check_scene, load_scene
+    from humanoid_ik.outputs.viewer import check_display, view_scene
+
+    if args.scene is not None and (args.model is not None or args.site is not None):
+        raise UsageError("give a SCENE or --model/--site, not both")
+    check_display()
+    if args.scene is None:
+        scene = _point_scene(args)
+    else:
+        scene = load_scene(args.scene)
+        if args.solver is not None:
+            from humanoid_ik.solvers import SOLVERS
+
+            if args.solver not in SOLVERS:
+                raise UsageError(f"--solver '{args.solver}' unknown; solvers: {', '.join(SOLVERS)}")
+            scene = scene.with_overrides(solver=args.solver)
+    check_scene(scene)
+    if args.out is not None:
+        from humanoid_ik.outputs.record import check_output_dir
+
+        check_output_dir(args.out)
+
+    def opened() -> None:
+        print(
+            "humanoid-ik: viewer open: space pauses the motions; double-click a target, "
+            "then Ctrl + right-drag moves it; Backspace hands it back; close the window "
+            "to stop",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    result = view_scene(scene, args.out, duration=args.duration, on_open=opened)
+    print(f"{scene.name}: {result.frames} frame(s) shown")
+    return report_files(result.trajectory or (), (), result.recorded.interrupted, result.frames)
+
+
+def _duration(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        v = -1.0
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds > 0, got '{text}'")
+    return v
+
+
+def register(subparsers: Any) -> None:
+    """Add ``view`` to the ``humanoid-ik`` subcommands."""
+    p = subparsers.add_parser(
+        "view",
+        help="MuJoCo's interactive viewer: drag the targets, the solver tracks them live",
+        description="Open MuJoCo's viewer on a scene (or a model and site) with the targets "
+        "as mocap bodies: motions play (space pauses), targets can be dragged "
+        "(double-click, Ctrl + right-drag; Backspace releases), the solver tracks live. "
+        "Needs a display.",
+    )
+    p.add_argument(
+        "scene", nargs="?", metavar="SCENE", help="a scene .toml file or a bundled scene name"
+    )
+    p.add_argument("--model", type=nonempty_path, help="MJCF path (default: the bundled humanoid)")
+    p.add_argument("--site", help="end-effector site (default: right_palm_site)")
+    p.add_argument("--solver", metavar="NAME", help="the solver (default: the scene's, or dls)")
+    p.add_argument(
+        "--duration", type=_duration, metavar="S", help="close after S seconds of frames"
+    )
+    p.add_argument(
+        "--out", type=nonempty_path, metavar="DIR", help="write the trajectory here on exit"
+    )
+    p.set_defaults(func=_cmd_view)

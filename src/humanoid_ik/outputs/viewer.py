@@ -1,0 +1,227 @@
+"""The live viewer: MuJoCo's interactive viewer (``mujoco.viewer.launch_passive``) on a
+scene, the targets as mocap bodies the user can drag, the scene's solver tracking them.
+
+Per frame (the one frame loop, :func:`~humanoid_ik.run.runner.frame_loop`, paced to
+the scene's frame rate): every target not dragged by the user moves along its motion
+(unless paused: space bar), its mocap body follows; a dragged target stays where the
+user put it (Backspace hands every target back to its motion); the solvers solve for
+the mocap bodies' positions from the previous frame's joints, the viewer shows the
+result, and the overlay shows each effector's solver, error and solve time. When the
+window closes (or ``duration`` is up) the trajectory of the frames shown is written
+before the viewer is shut down, so no data depends on a clean shutdown.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from humanoid_ik.config.specs import Scene
+from humanoid_ik.core.models import staged_spec
+from humanoid_ik.core.types import Target
+from humanoid_ik.errors import RenderError
+from humanoid_ik.outputs.trajectory import write_trajectory
+from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.runner import SceneRunner, frame_loop
+from humanoid_ik.run.trajectory import Trajectory
+
+__all__ = [
+    "KEY_PAUSE",
+    "KEY_RELEASE",
+    "LiveTargets",
+    "ViewOutputs",
+    "check_display",
+    "mocap_model",
+    "view_scene",
+]
+
+KEY_PAUSE = 32
+"""GLFW key code of the space bar: pause or resume the targets' motions."""
+KEY_RELEASE = 259
+"""GLFW key code of Backspace: every dragged target goes back to its motion."""
+MARKER_RADIUS = 0.025
+"""Radius of a target's mocap sphere [m]."""
+NO_DISPLAY = (
+    "view needs a display ({why}); film the scene headless with 'humanoid-ik render "
+    "SCENE' instead, or run the viewer under a virtual X server (xvfb-run -a humanoid-ik "
+    "view ...)"
+)
+
+
+def mocap_model(
+    path: str | os.PathLike, names: list[str], points: NDArray[np.float64] | None = None
+) -> tuple[mujoco.MjModel, list[int]]:
+    """The model at ``path`` in the default stage (framed on ``points`` too, see
+    :func:`~humanoid_ik.core.models.staged_spec`) with one mocap body per target (a
+    sphere that does not collide), added through ``MjSpec``; returns it and each
+    target's mocap index."""
+    spec = staged_spec(path, points)
+    for name in names:
+        body = spec.worldbody.add_body(name=f"target_{name}", mocap=True)
+        body.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            size=[MARKER_RADIUS, 0, 0],
+            rgba=[1.0, 0.55, 0.0, 0.7],
+            contype=0,
+            conaffinity=0,
+        )
+    model = spec.compile()
+    ids = [
+        int(model.body_mocapid[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"target_{n}")])
+        for n in names
+    ]
+    return model, ids
+
+
+class LiveTargets:
+    """Where each target is in the viewer: on its motion at the live time, or where the
+    user dragged its mocap body.
+
+    Args:
+        runner: the scene's runner on the mocap model.
+        mocap: each scene target's mocap index (scene target order).
+    """
+
+    def __init__(self, runner: SceneRunner, mocap: list[int]):
+        self.runner = runner
+        self.tracks = list(runner.scene.targets)
+        self.mocap = mocap
+        self.paused = False
+        self.time = 0.0
+        self.dragged = [False] * len(mocap)
+        self._placed: list[NDArray[np.float64] | None] = [None] * len(mocap)
+
+    def key(self, code: int) -> None:
+        """Space pauses or resumes the motions; Backspace releases dragged targets."""
+        if code == KEY_PAUSE:
+            self.paused = not self.paused
+        elif code == KEY_RELEASE:
+            self.dragged = [False] * len(self.mocap)
+
+    def update(self, data: mujoco.MjData, dt: float) -> list[Target]:
+        """Advance the live time by ``dt`` [s] (unless paused), move every target that is
+        not dragged along its motion, and return each effector's target."""
+        if not self.paused:
+            self.time += dt
+        by_name: dict[str, Target] = {}
+        for k, (trk, m) in enumerate(zip(self.tracks, self.mocap, strict=True)):
+            placed = self._placed[k]
+            if placed is not None and not np.array_equal(data.mocap_pos[m], placed):
+                self.dragged[k] = True  # the user moved it since the last frame
+            target = trk.at(self.time)
+            if self.dragged[k]:
+                quat = None if target.quat is None else data.mocap_quat[m].copy()
+                target = Target(data.mocap_pos[m].copy(), quat)
+            else:
+                data.mocap_pos[m] = target.position
+                if target.quat is not None:
+                    data.mocap_quat[m] = target.quat
+            self._placed[k] = data.mocap_pos[m].copy()
+            by_name[trk.name] = target
+        return [by_name[e.target] for e in self.runner.scene.effectors]
+
+
+@dataclass(frozen=True)
+class ViewOutputs:
+    """What a viewer session left: the frames shown and the trajectory files."""
+
+    frames: int
+    trajectory: tuple[Path, Path] | None
+    recorded: Trajectory
+
+
+def _overlay(record: FrameRecord, solvers: list[str]) -> tuple[str, str]:
+    """The overlay's two columns: per effector its solver, error and solve time."""
+    left, right = ["time"], [f"{record.time:.2f} s"]
+    for s, label in zip(record.samples, solvers, strict=True):
+        left.append(s.effector)
+        right.append(
+            f"{label}  error {s.position_error * 1e3:.2f} mm  solve {s.solve_time * 1e3:.2f} ms"
+        )
+    return "\n".join(left), "\n".join(right)
+
+
+def check_display() -> None:
+    """Raise a one-line :class:`RenderError` when there is no display to open a window.
+
+    Raises:
+        RenderError: ``DISPLAY`` (and ``WAYLAND_DISPLAY``) unset on Linux.
+    """
+    if sys.platform.startswith("linux") and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    ):
+        raise RenderError(NO_DISPLAY.format(why="DISPLAY is not set"))
+
+
+def view_scene(
+    scene: Scene,
+    out_dir: str | os.PathLike | None = None,
+    *,
+    duration: float | None = None,
+    on_open: Callable[[], None] | None = None,
+) -> ViewOutputs:
+    """Open the live viewer on ``scene`` until its window closes (or ``duration`` [s] of
+    frames have been shown), then write ``trajectory.npz``/``.csv`` into ``out_dir``
+    (when given); ``on_open`` is called once the window is open.
+
+    The targets' motions advance one frame time ``1 / fps`` per frame shown, paced to
+    the wall clock; a display that cannot keep up plays them slower, never skips.
+    Ctrl-C (or SIGTERM through the CLI) ends the session like closing the window, and
+    the trajectory then says ``interrupted``.
+
+    Raises:
+        RenderError: no display, or the viewer's window cannot be opened.
+        SceneError: the scene does not fit its model.
+    """
+    check_display()
+    import mujoco.viewer
+
+    model, mocap = mocap_model(scene.model, [t.name for t in scene.targets], scene.target_points())
+    runner = SceneRunner(scene, model)
+    live = LiveTargets(runner, mocap)
+    recorder = runner.recorder()
+    solvers = runner.solver_labels()
+    dt = 1.0 / scene.fps
+    before = set(threading.enumerate())
+    try:
+        viewer = mujoco.viewer.launch_passive(model, runner.data, key_callback=live.key)
+    except Exception as exc:  # glfw raises several types without a display
+        raise RenderError(NO_DISPLAY.format(why=" ".join(str(exc).split()))) from exc
+    if on_open is not None:
+        on_open()
+    start = time.perf_counter()
+
+    def step(i: int) -> FrameRecord:
+        wait = start + i * dt - time.perf_counter()
+        if wait > 0:
+            time.sleep(wait)
+        with viewer.lock():
+            targets = live.update(runner.data, 0.0 if i == 0 else dt)
+            return runner.step(i, targets, live.time)
+
+    class Show:
+        def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
+            viewer.set_texts((None, None, *_overlay(record, solvers)))
+            viewer.sync()
+
+    n = 2**62 if duration is None else max(1, round(duration * scene.fps))
+    try:
+        _, interrupted = frame_loop(
+            n, step, runner.data, [recorder, Show()], stop=lambda: not viewer.is_running()
+        )
+        traj = recorder.trajectory(interrupted)
+        files = None if out_dir is None else write_trajectory(traj, out_dir)
+    finally:
+        viewer.close()
+        for thread in set(threading.enumerate()) - before:  # the viewer's window thread
+            thread.join(timeout=10.0)
+    return ViewOutputs(traj.n_frames, files, traj)

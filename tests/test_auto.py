@@ -1,0 +1,150 @@
+"""``auto``: which solver it runs on which chain and task, the fallback to ``lm``, the
+recorded choice, and ``auto`` as the default of ``solve``, the CLI and scene files."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from humanoid_ik import Chain, make_solver, solve
+from humanoid_ik.cli.app import main
+from humanoid_ik.config.scene import parse_scene
+from humanoid_ik.core.rotations import mat_to_quat
+from humanoid_ik.core.types import Status, Target
+from humanoid_ik.experiments.bench import make_targets
+from humanoid_ik.run.runner import run_scene
+
+from .chains import CCD_XML, chain, fixture
+from .test_solvers import ROBOT
+
+
+@pytest.mark.parametrize(
+    ("make", "position", "pose"),
+    [
+        (lambda: Chain(), "closed_form", "closed_form"),
+        (lambda: Chain(ROBOT, "right_hand_site"), "lm", "lm"),  # waist + 7 hinges
+        (lambda: fixture("planar_arm", riding=False), "two_link", "lm"),
+        (lambda: fixture("three_hinge_arm", riding=False), "two_link", "lm"),
+        (lambda: fixture("three_hinge_arm"), "lm", "lm"),  # a wrist rides after the elbow
+        (lambda: chain(CCD_XML, "p3"), "two_link", "lm"),
+    ],
+)
+def test_choice_per_chain_and_task(make, position, pose):
+    """closed_form where the chain is shoulder-elbow-wrist; two_link for a position
+    target on a chain it places whole; lm otherwise."""
+    c = make()
+    auto = make_solver("auto")
+    assert auto.choice(c, False).name == position
+    assert auto.choice(c, True).name == pose
+
+
+@pytest.mark.parametrize("pose", [False, True])
+def test_answers_name_the_solver_that_produced_them(pose):
+    """On the models/robot waist-and-arm chain every answer is lm's, converged, inside
+    the ranges, and records ("lm",) as the solvers tried."""
+    c = Chain(ROBOT, "right_hand_site")
+    auto = make_solver("auto")
+    for tgt in make_targets(c, 10, 2, pose):
+        c.reset()
+        res = auto.solve(c, tgt)
+        assert res.converged and res.solver == "lm" and res.details["auto"] == ("lm",)
+        assert c.within_limits(res.q, tol=0.0)
+        np.testing.assert_allclose(c.fk(res.q)[0], tgt.position, atol=1e-4)
+
+
+def test_same_answer_as_the_chosen_solver(right_arm):
+    """On the bundled arm auto's pose answer is closed_form's, bit for bit, and keeps
+    closed_form's details beside its own."""
+    tgt = make_targets(right_arm, 1, 8, True)[0]
+    right_arm.reset()
+    got = make_solver("auto").solve(right_arm, tgt)
+    right_arm.reset()
+    want = make_solver("closed_form").solve(right_arm, tgt)
+    np.testing.assert_array_equal(got.q, want.q)
+    assert got.solver == "closed_form" and got.details["auto"] == ("closed_form",)
+    assert got.status is want.status is Status.CONVERGED
+
+
+def test_position_miss_of_the_closed_form_falls_back_to_lm(right_arm):
+    """closed_form keeps the wrist for a position target and misses some reachable
+    ones; auto then solves them with lm from the same start and records both."""
+    c = right_arm
+    closed, auto = make_solver("closed_form"), make_solver("auto")
+    missed = []
+    for tgt in make_targets(c, 300, 0, False):
+        c.reset()
+        if not closed.solve(c, tgt).converged:
+            missed.append(tgt)
+    assert missed  # the bundled arm has such targets (about 2 %)
+    for tgt in missed:
+        c.reset()
+        res = auto.solve(c, tgt)
+        assert res.converged and res.solver == "lm"
+        assert res.details["auto"] == ("closed_form", "lm")
+        assert np.linalg.norm(c.fk(res.q)[0] - tgt.position) < 1e-4
+
+
+def test_unreachable_pose_is_not_retried(right_arm):
+    """A pose target beyond the arm's reach: closed_form's unreachable answer is
+    returned as is (the closed form is complete), without an lm run."""
+    _, R = right_arm.fk(right_arm.q_home)
+    res = make_solver("auto").solve(right_arm, Target([2.0, -2.0, 1.0], mat_to_quat(R)))
+    assert res.status is Status.UNREACHABLE and res.details["auto"] == ("closed_form",)
+    assert right_arm.within_limits(res.q, tol=0.0)
+
+
+def test_unreachable_position_keeps_the_closer_answer(right_arm):
+    """A point 3 m away: closed_form and lm both miss; the answer is the closer of the
+    two and the chain's scratch data is at it."""
+    res = make_solver("auto").solve(right_arm, [3.0, 0.0, 1.2])
+    assert not res.converged and res.details["auto"] == ("closed_form", "lm")
+    np.testing.assert_allclose(right_arm.q, res.q)
+    assert right_arm.within_limits(res.q, tol=0.0)
+
+
+def test_options_reach_the_solvers_it_runs(right_arm):
+    """tol is handed on: with tol = 0.5 m a far target converges at once."""
+    p = right_arm.position + np.array([0.0, 0.0, 0.1])
+    res = make_solver("auto", tol=0.5).solve(right_arm, p)
+    assert res.converged and res.position_error < 0.5
+
+
+def test_library_default_is_auto(right_arm):
+    """solve() without a solver name runs auto."""
+    res = solve(right_arm, [0.3, -0.25, 1.1])
+    assert res.converged and res.details["auto"][0] == "closed_form"
+
+
+def test_cli_solve_prints_the_choice(capsys):
+    """`humanoid-ik solve` defaults to auto and prints 'solver auto -> closed_form';
+    --json records the choice in details."""
+    assert main(["solve", "--target", "0.3,-0.25,1.1"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[0].startswith("solver auto -> closed_form: converged")
+    assert main(["solve", "--target", "0.3,-0.25,1.1", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["solver"] == "closed_form" and doc["details"]["auto"] == ["closed_form"]
+
+
+def test_scene_default_solver_is_auto():
+    """A scene file without a [solver] table runs auto: every frame of a point-to-point
+    reach is on target, and the metrics name the solver."""
+    doc = {
+        "duration": 1.0,
+        "fps": 10,
+        "targets": [
+            {
+                "name": "t",
+                "motion": {"kind": "points", "points": [[0.45, -0.25, 1.05], [0.3, -0.3, 1.5]]},
+            }
+        ],
+        "effectors": [{"site": "right_palm_site", "target": "t"}],
+    }
+    scene = parse_scene(doc, "inline.toml")
+    assert scene.solver.name == "auto"
+    metrics = run_scene(scene)
+    (row,) = metrics.summary()
+    assert row["solver"] == "auto" and row["frames"] == 10
+    assert row["on_target_when_reachable"] == 1.0
