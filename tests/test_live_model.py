@@ -62,7 +62,7 @@ def test_changed_joint_range_on_a_live_model_is_followed_by_every_solve():
     elbow = chain.joint_names.index("right_elbow_joint")
     jid = int(chain.joint_ids[elbow])
     chain.model.jnt_range[jid] = [0.0, 0.3]  # a narrow elbow
-    for name in ("dls", "ccd", "pseudoinverse", "closed_form"):
+    for name in ("dls", "ccd", "pseudoinverse", "closed_form", "lm", "auto", "mink"):
         res = solve(chain, REACHABLE, name, q0=np.zeros(chain.n))
         assert 0.0 - 1e-9 <= res.q[elbow] <= 0.3 + 1e-9, name
         if res.converged:  # a converged answer is within the new range and on target
@@ -163,3 +163,14 @@ def test_threads_with_their_own_chains_match_one_thread():
             np.testing.assert_array_equal(q, q1)
             assert err == err1
             assert abs(err - fk_err) < 1e-9  # the reported error is that of its own q
+
+
+def test_mink_rebuilds_its_problem_after_the_model_changed():
+    chain = Chain()
+    solver = make_solver("mink")
+    assert solve(chain, REACHABLE, solver).converged  # builds and caches the QP
+    elbow = chain.joint_names.index("right_elbow_joint")
+    chain.model.jnt_range[chain.joint_ids[elbow]] = [0.0, 0.3]
+    res = solve(chain, REACHABLE, solver, q0=np.zeros(chain.n))
+    assert 0.0 <= res.q[elbow] <= 0.3 + 1e-9
+    assert chain.version == 1

@@ -448,6 +448,32 @@ def test_unreachable_target_stops_with_a_reason():
     assert not res.converged and res.status == "max_iterations" and res.message
 
 
+@pytest.mark.parametrize("restarts, max_iterations", [(0, 5), (2, 40), (20, 200)])
+def test_gave_up_message_agrees_with_the_options(capsys, restarts, max_iterations):
+    """An unreachable target: ``iterations`` sums every start's QP steps, never more than
+    ``(restarts + 1) * max_iterations``, and the note names that sum, the per-start cap
+    and the start whose pose is returned, with a count within that cap (the CLI printed
+    the sum as "max_iterations after 391 iteration(s)" next to the closest start's own
+    "stalled after 17 iterations", as if the documented cap of 200 had been exceeded)."""
+    from humanoid_ik.cli import main
+
+    argv = ["solve", "--solver", "mink", "--target=3,-3,1"]
+    argv += ["--option", f"restarts={restarts}", "--option", f"max_iterations={max_iterations}"]
+    assert main(argv) == 1
+    out = capsys.readouterr().out.splitlines()
+    head, note = out[0], out[-1]
+    total = int(head.split(" after ")[1].split()[0])
+    assert head == f"solver mink: max_iterations after {total} iteration(s)"
+    assert restarts + 1 <= total <= (restarts + 1) * max_iterations
+    assert note.startswith(f"note: no start of {restarts + 1} converged")
+    assert f"; {total} iterations in all, at most {max_iterations} per start; start " in note
+    start = int(note.split("; start ")[1].split()[0])
+    assert 1 <= start <= restarts + 1
+    why = note.split("(the closest): ")[1]
+    own = int(why.split(" iterations")[0].split()[-1])  # "stalled after k" / "... in k"
+    assert 1 <= own <= max_iterations
+
+
 def _goals(tasks=("reach", "reach", "look_at")) -> list[Goal]:
     m = Chain().model
     sites = ["right_palm_site", "left_palm_site", "gaze_site"]
@@ -870,3 +896,19 @@ def test_task_parts_refuse_bad_input():
             task.set_target([1.0, math.inf, 0.0])
     with pytest.raises(mink.TargetNotSet):
         gaze.error(cfg)
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "bound"),
+    [
+        ("max_iterations", 10**9, "<= 100000"),
+        ("restarts", 5000, "<= 1000"),
+        ("stall_window", 10**6, "<= 100000"),
+        ("max_step", 100.0, "<= 6.28319"),
+        ("dt", 60.0, "<= 10"),
+        ("max_velocity", 1e9, "<= 1000"),
+    ],
+)
+def test_mink_options_have_upper_bounds_named_in_the_error(option, value, bound):
+    with pytest.raises(SolverError, match=f"option '{option}' of solver 'mink' .*{bound}"):
+        make_solver("mink", **{option: value})

@@ -152,6 +152,9 @@ class Chain:
         self._kinematics = _snapshot(m, _KINEMATIC_FIELDS)
         self._structure = _snapshot(m, _STRUCTURE_FIELDS)
         self._busy = threading.Lock()
+        self.version = 0
+        """How many times :meth:`refresh` re-read the model: a cache held outside the
+        chain (a solver's own) compares it to know whether it is still current."""
         # (6, nv) Jacobian buffer; rows 0-2 and 3-5 are C-contiguous views for mj_jacSite
         self._jac = np.zeros((6, m.nv))
         self._jacp, self._jacr = self._jac[:3], self._jac[3:]
@@ -191,6 +194,7 @@ class Chain:
         self._kinematics = snapshot or _snapshot(self.model, _KINEMATIC_FIELDS)
         self._read_ranges()
         self._derived.clear()
+        self.version += 1
         q = self.q
         self.q_home = self._home()
         self.set_q(self.clip(q))

@@ -13,7 +13,7 @@ This module does not import mink; building the first :class:`UpperBodyIK` does.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -31,7 +31,8 @@ from humanoid_ik.solvers.options import SolverOptions, option
 __all__ = ["MinkOptions", "MinkSolver", "UpperBodyIK"]
 
 _TASKS = ("reach", "look_at")
-EffectorsKey = tuple[tuple[Chain, bool], ...]
+EffectorsKey = tuple[tuple[Chain, int, bool], ...]
+"""Each goal's chain, its ``version`` (a model changed since rebuilds) and whether it looks."""
 """The goals' chains (by identity) and whether each is a ``look_at``, in goal order."""
 
 
@@ -71,6 +72,18 @@ class MinkOptions(SolverOptions):
     max_velocity: float = 4.0
     qp_solver: str = "daqp"
     forward_axis: str = option("x", valid=("x", "y", "z"))
+
+    BOUNDS: ClassVar[Mapping[str, tuple[float, float]]] = {
+        "max_iterations": (0, 100_000),
+        "restarts": (0, 1_000),
+        "stall_window": (0, 100_000),
+        "max_step": (0.0, 2.0 * math.pi),
+        "dt": (0.0, 10.0),
+        "max_velocity": (0.0, 1e3),
+    }
+    """Steps, restarts and the stall window bound a solve's time; a step larger than a
+    turn, a tracking step over 10 s or a joint speed over 1000 rad/s is an input
+    mistake."""
 
 
 class MinkSolver(Solver):
@@ -140,7 +153,7 @@ class MinkSolver(Solver):
 
     def __init__(self, **options: Any):
         super().__init__(**options)
-        self._cache: tuple[Chain, UpperBodyIK] | None = None
+        self._cache: tuple[Chain, int, UpperBodyIK] | None = None
         """The :meth:`solve` cache: (chain, its UpperBodyIK)."""
         self._multi_cache: tuple[EffectorsKey, UpperBodyIK] | None = None
         """The :meth:`solve_effectors` cache: (goals key, their UpperBodyIK)."""
@@ -167,9 +180,10 @@ class MinkSolver(Solver):
             SolverError: a bad option value (e.g. an unknown ``qp_solver``).
         """
         if self._cache is not None and self._cache[0] is chain:
-            return self._cache[1]
+            if self._cache[1] == chain.version:
+                return self._cache[2]
         ik = self._build(chain.model, (chain,), None)
-        self._cache = (chain, ik)
+        self._cache = (chain, chain.version, ik)
         return ik
 
     def prepare(self, chain: Chain) -> None:
@@ -185,8 +199,9 @@ class MinkSolver(Solver):
         ik = self.upper_body(chain)
         qpos = chain.data.qpos.copy()
         key = {chain.ee_name: target}
-        best_q, best_cost, iterations, message = q0.copy(), math.inf, 0, ""
-        for start in self.starts(chain, q0):
+        best_q, best_cost, iterations = q0.copy(), math.inf, 0
+        best_start, best_why = 0, ""
+        for k, start in enumerate(self.starts(chain, q0)):
             qpos[chain.qpos_adr] = start
             ik.set_q(qpos)
             res = ik.solve(key)
@@ -196,8 +211,24 @@ class MinkSolver(Solver):
                 return self._result(chain, target, r.q, iterations)
             cost = r.position_error + 0.1 * (r.orientation_error or 0.0)
             if cost < best_cost:
-                best_cost, best_q, message = cost, r.q.copy(), res.message
-        return self._result(chain, target, best_q, iterations, message=message)
+                best_cost, best_q, best_start, best_why = cost, r.q.copy(), k + 1, res.message
+        return self._result(
+            chain,
+            target,
+            best_q,
+            iterations,
+            message=self._gave_up(iterations, best_start, best_why),
+        )
+
+    def _gave_up(self, iterations: int, best_start: int, why: str) -> str:
+        """The message of a solve in which no start converged: the iterations summed over
+        the starts (what ``IKResult.iterations`` counts) against the per-start cap, and
+        why the start of the returned pose ended."""
+        o = self.options
+        return (
+            f"{self.gave_up()}; {iterations} iterations in all, at most "
+            f"{o.max_iterations} per start; start {best_start} (the closest): {why}"
+        )
 
     # ------------------------------------------------------------------ several effectors
     def upper_body_for(self, goals: Sequence[EffectorGoal]) -> UpperBodyIK:
@@ -207,12 +238,15 @@ class MinkSolver(Solver):
             SolverError: an unknown task, more than one ``look_at``, a bad option.
             ChainError: chains on different models.
         """
-        key: EffectorsKey = tuple((g.chain, g.task == "look_at") for g in goals)
+        key: EffectorsKey = tuple((g.chain, g.chain.version, g.task == "look_at") for g in goals)
         cached = self._multi_cache
         if (
             cached is not None
             and len(cached[0]) == len(key)
-            and all(a is b and la == lb for (a, la), (b, lb) in zip(cached[0], key, strict=True))
+            and all(
+                a is b and va == vb and la == lb
+                for (a, va, la), (b, vb, lb) in zip(cached[0], key, strict=True)
+            )
         ):
             return cached[1]
         for g in goals:
@@ -220,13 +254,13 @@ class MinkSolver(Solver):
                 raise SolverError(
                     f"task '{g.task}' of '{g.chain.ee_name}' unknown; tasks: {choices(_TASKS)}"
                 )
-        looks = [c for c, look in key if look]
+        looks = [c for c, _v, look in key if look]
         if len(looks) > 1:
             raise SolverError(
                 "mink aims one look_at effector per call, got "
                 f"{len(looks)}: {', '.join(c.ee_name for c in looks)}"
             )
-        hands = [c for c, look in key if not look]
+        hands = [c for c, _v, look in key if not look]
         ik = self._build(key[0][0].model, hands, looks[0] if looks else None)
         self._multi_cache = (key, ik)
         return ik
@@ -261,6 +295,8 @@ class MinkSolver(Solver):
         """
         if not goals:
             return []
+        for g in goals:  # follow a model changed in place (see Chain.sync)
+            g.chain.sync()
         ik = self.upper_body_for(goals)
         qpos = goals[0].chain.data.qpos.copy()
         targets: dict[str, Target | NDArray[np.float64]] = {}
