@@ -4,32 +4,20 @@ fails as on a full disk; no broken MP4 may be left under the final name."""
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from humanoid_ik.outputs.render.video import mp4_complete
+from tests.processes import run_cli
 
 ARGS = ["render", "circle", "--frames", "12", "--width", "96", "--height", "72"]
 
 
 def _render(out: Path, limit: int | None = None) -> subprocess.CompletedProcess:
-    code = (
-        "import resource, signal, sys\n"
-        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
-        f"limit = {limit!r}\n"
-        "if limit: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))\n"
-        "from humanoid_ik.cli import main\n"
-        f"sys.exit(main({[*ARGS, '--out', str(out)]!r}))\n"
-    )
-    env = {**os.environ, "MUJOCO_GL": "egl"}
-    return subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
-    )
+    return run_cli(*ARGS, "--out", str(out), limit=limit)
 
 
 @pytest.mark.slow

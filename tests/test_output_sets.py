@@ -6,12 +6,10 @@ writing into the same folder)."""
 from __future__ import annotations
 
 import json
-import os
 import random
 import signal
-import subprocess
-import sys
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -20,36 +18,9 @@ import pytest
 from humanoid_ik.outputs.atomic import MANIFEST, publish, published, staged_outputs
 from humanoid_ik.outputs.render.video import mp4_complete
 from humanoid_ik.outputs.trajectory import load_trajectory
+from tests.processes import none_left, run_cli, start, temporaries
 
 SMALL = ["--width", "64", "--height", "48"]
-
-
-def _cli(*args: str, limit: int | None = None) -> subprocess.CompletedProcess:
-    code = (
-        "import resource, signal, sys\n"
-        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
-        f"limit = {limit!r}\n"
-        "if limit: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))\n"
-        "from humanoid_ik.cli import main\n"
-        f"sys.exit(main({list(args)!r}))\n"
-    )
-    return subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        env={**os.environ, "MUJOCO_GL": "egl"},
-        timeout=300,
-    )
-
-
-def _start(*args: str) -> subprocess.Popen:
-    return subprocess.Popen(
-        [sys.executable, "-m", "humanoid_ik", *args],
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        env={**os.environ, "MUJOCO_GL": "egl"},
-    )
 
 
 def _check_one_set(folder: Path) -> list[str]:
@@ -69,10 +40,6 @@ def _check_one_set(folder: Path) -> list[str]:
     return names
 
 
-def _temporaries(folder: Path) -> list[str]:
-    return sorted(p.name for p in folder.iterdir() if ".tmp" in p.name)
-
-
 def test_publish_replaces_the_previous_set_and_keeps_the_users_files(tmp_path):
     (tmp_path / "notes.txt").write_text("mine")
     with staged_outputs(tmp_path) as stage:
@@ -86,7 +53,7 @@ def test_publish_replaces_the_previous_set_and_keeps_the_users_files(tmp_path):
     assert not (tmp_path / "a.png").exists()  # the earlier run's own file is gone
     assert (tmp_path / "b.png").read_text() == "run 2"
     assert (tmp_path / "notes.txt").read_text() == "mine"  # never listed, never touched
-    assert _temporaries(tmp_path) == []
+    assert temporaries(tmp_path) == []
 
 
 def test_a_failed_run_leaves_the_previous_set_untouched(tmp_path):
@@ -96,7 +63,7 @@ def test_a_failed_run_leaves_the_previous_set_untouched(tmp_path):
         (stage / "metrics.json").write_text("run 2, half")
         raise RuntimeError("the renderer failed")
     assert (tmp_path / "metrics.json").read_text() == "run 1"
-    assert published(tmp_path) == ["metrics.json"] and _temporaries(tmp_path) == []
+    assert published(tmp_path) == ["metrics.json"] and temporaries(tmp_path) == []
 
 
 def test_a_damaged_manifest_is_ignored_not_trusted(tmp_path):
@@ -115,11 +82,11 @@ def test_a_damaged_manifest_is_ignored_not_trusted(tmp_path):
 @pytest.mark.slow
 def test_rerender_removes_the_earlier_runs_frames_and_gif(tmp_path):
     out = tmp_path / "out"
-    first = _cli("render", "showcase", "--frames", "12", *SMALL, "--out", str(out))
+    first = run_cli("render", "showcase", "--frames", "12", *SMALL, "--out", str(out))
     assert first.returncode == 0, first.stderr
     (out / "notes.txt").write_text("mine")
     first_names = set(published(out))
-    second = _cli("render", "circle", "--frames", "5", *SMALL, "--no-video", "--out", str(out))
+    second = run_cli("render", "circle", "--frames", "5", *SMALL, "--no-video", "--out", str(out))
     assert second.returncode == 0, second.stderr
     names = _check_one_set(out)
     assert "showcase.mp4" in first_names and not (out / "showcase.mp4").exists()
@@ -130,22 +97,23 @@ def test_rerender_removes_the_earlier_runs_frames_and_gif(tmp_path):
 @pytest.mark.slow
 def test_render_failing_at_the_video_keeps_the_previous_complete_set(tmp_path):
     out = tmp_path / "out"
-    first = _cli("render", "circle", "--frames", "12", *SMALL, "--out", str(out))
+    first = run_cli("render", "circle", "--frames", "12", *SMALL, "--out", str(out))
     assert first.returncode == 0, first.stderr
     before = {n: (out / n).read_bytes() for n in published(out)}
     size = (out / "circle.mp4").stat().st_size
-    failed = _cli("render", "circle", "--frames", "12", *SMALL, "--out", str(out), limit=size - 100)
+    args = ["render", "circle", "--frames", "12", *SMALL, "--out", str(out)]
+    failed = run_cli(*args, limit=size - 100)
     assert failed.returncode == 2 and "did not finish the file" in failed.stderr
     assert {n: (out / n).read_bytes() for n in published(out)} == before
-    assert _temporaries(out) == []
+    assert temporaries(out) == []
 
 
 @pytest.mark.slow
 def test_two_renders_into_one_folder_leave_one_whole_set(tmp_path):
     out = tmp_path / "out"
     procs = [
-        _start("render", "showcase", "--frames", "10", *SMALL, "--out", str(out)),
-        _start("render", "circle", "--frames", "7", *SMALL, "--out", str(out)),
+        start(["render", "showcase", "--frames", "10", *SMALL, "--out", str(out)]),
+        start(["render", "circle", "--frames", "7", *SMALL, "--out", str(out)]),
     ]
     for p in procs:
         _o, err = p.communicate(timeout=300)
@@ -153,13 +121,13 @@ def test_two_renders_into_one_folder_leave_one_whole_set(tmp_path):
     names = _check_one_set(out)
     scenes = {n.split(".")[0] for n in names if n.endswith(".mp4")}
     assert len(scenes) == 1  # one run's video, not both
-    assert _temporaries(out) == []
+    assert temporaries(out) == []
 
 
 @pytest.mark.slow
 def test_ctrl_c_during_a_render_publishes_the_frames_done(tmp_path):
     out = tmp_path / "out"
-    proc = _start("render", "showcase", "--frames", "400", *SMALL, "--out", str(out))
+    proc = start(["render", "showcase", "--frames", "400", *SMALL, "--out", str(out)])
     deadline = time.monotonic() + 120
     stage = None
     while stage is None and time.monotonic() < deadline:
@@ -179,24 +147,27 @@ def test_ctrl_c_during_a_render_publishes_the_frames_done(tmp_path):
 @pytest.mark.slow
 def test_random_kills_of_renders_leave_one_whole_set_or_the_previous(tmp_path):
     """20 renders into one folder, each stopped by a random signal at a random moment:
-    the folder always holds one complete set (the last finished or published one), and
-    the next run leaves no temporary behind."""
+    the folder always holds one complete set (the last finished or published one), no
+    process of the run (ffmpeg included) outlives it, and the next run leaves no
+    temporary behind."""
     rng = random.Random(14)
     out = tmp_path / "out"
-    first = _cli("render", "circle", "--frames", "6", *SMALL, "--out", str(out))
+    first = run_cli("render", "circle", "--frames", "6", *SMALL, "--out", str(out))
     assert first.returncode == 0, first.stderr
     for _ in range(20):
         sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
         frames = str(rng.choice([20, 40, 80]))
-        proc = _start("render", "showcase", "--frames", frames, *SMALL, "--out", str(out))
+        tag = uuid.uuid4().hex
+        proc = start(["render", "showcase", "--frames", frames, *SMALL, "--out", str(out)], tag)
         time.sleep(rng.uniform(0.15, 4.0))
         proc.send_signal(sig)
         _o, err = proc.communicate(timeout=120)
         status = {signal.SIGINT: 130, signal.SIGTERM: 143}.get(sig)
         assert proc.returncode in (0, -sig, status), err.decode()[-800:]
         assert "Traceback" not in err.decode(), err.decode()[-1500:]
+        assert none_left(tag) == []  # ffmpeg included
         _check_one_set(out)
-    last = _cli("render", "circle", "--frames", "4", *SMALL, "--no-video", "--out", str(out))
+    last = run_cli("render", "circle", "--frames", "4", *SMALL, "--no-video", "--out", str(out))
     assert last.returncode == 0, last.stderr
     _check_one_set(out)
-    assert _temporaries(out) == []
+    assert temporaries(out) == []

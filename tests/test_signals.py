@@ -19,47 +19,9 @@ import pytest
 from humanoid_ik.core.models import bundled_dir
 from humanoid_ik.experiments.dataset import read_dataset
 from humanoid_ik.outputs.atomic import atomic_dir, atomic_path, remove_stale
+from tests.processes import MESSAGE, STATUS, none_left, start, tagged, temporaries
 
 SWEEP = bundled_dir("sweeps") / "compare_solvers.toml"
-STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}
-MESSAGE = {signal.SIGINT: "humanoid-ik: interrupted", signal.SIGTERM: "humanoid-ik: terminated"}
-
-
-def _start(args: list[str], tag: str) -> subprocess.Popen:
-    env = {**os.environ, "HUMANOID_IK_TEST_TAG": tag, "MUJOCO_GL": "egl"}
-    return subprocess.Popen(
-        [sys.executable, "-m", "humanoid_ik", *args],
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        env=env,
-    )
-
-
-def _tagged(tag: str) -> list[int]:
-    """Processes alive whose environment carries ``tag`` (the run and all it started)."""
-    needle = f"HUMANOID_IK_TEST_TAG={tag}".encode()
-    pids = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            if needle in (entry / "environ").read_bytes().split(b"\0"):
-                state = (entry / "stat").read_bytes().rsplit(b")", 1)[1].split()[0]
-                if state != b"Z":
-                    pids.append(int(entry.name))
-        except OSError:
-            continue
-    return pids
-
-
-def _none_left(tag: str, within: float = 10.0) -> list[int]:
-    deadline = time.monotonic() + within
-    while (alive := _tagged(tag)) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    for pid in alive:  # do not leave them to the next test
-        os.kill(pid, signal.SIGKILL)
-    return alive
 
 
 def _wait_for(path: Path, within: float = 60.0) -> None:
@@ -69,22 +31,18 @@ def _wait_for(path: Path, within: float = 60.0) -> None:
         time.sleep(0.05)
 
 
-def _temporaries(folder: Path) -> list[str]:
-    return sorted(p.name for p in folder.rglob(".*") if ".tmp" in p.name)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
 def test_killed_sweep_leaves_no_worker_and_frees_the_callers_pipes(tmp_path, sig):
     tag = uuid.uuid4().hex
-    proc = _start(["sweep", str(SWEEP), "--workers", "2", "--out", str(tmp_path)], tag)
+    proc = start(["sweep", str(SWEEP), "--workers", "2", "--out", str(tmp_path)], tag)
     _wait_for(tmp_path / "workers.log")
     time.sleep(1.0)  # the pool's workers are running jobs
-    assert len(_tagged(tag)) >= 3  # the sweep, its forkserver and workers
+    assert len(tagged(tag)) >= 3  # the sweep, its forkserver and workers
     proc.send_signal(sig)
     # communicate returns only when every holder of the pipes is gone
     _out, err = proc.communicate(timeout=30)
-    assert _none_left(tag) == []
+    assert none_left(tag) == []
     if sig == signal.SIGKILL:
         assert proc.returncode == -signal.SIGKILL
     else:
@@ -97,37 +55,37 @@ def test_killed_sweep_leaves_no_worker_and_frees_the_callers_pipes(tmp_path, sig
 def test_dataset_killed_leaves_temporaries_that_the_next_run_removes(tmp_path):
     out = tmp_path / "pairs.npz"
     tag = uuid.uuid4().hex
-    proc = _start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], tag)
+    proc = start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], tag)
     deadline = time.monotonic() + 60
-    while not _temporaries(tmp_path) and time.monotonic() < deadline:
+    while not temporaries(tmp_path) and time.monotonic() < deadline:
         time.sleep(0.05)
-    assert _temporaries(tmp_path), "the dataset never started writing"
+    assert temporaries(tmp_path), "the dataset never started writing"
     proc.kill()
     proc.communicate(timeout=30)
-    assert not out.exists() and _temporaries(tmp_path)  # what SIGKILL leaves behind
+    assert not out.exists() and temporaries(tmp_path)  # what SIGKILL leaves behind
     done = subprocess.run(
         [sys.executable, "-m", "humanoid_ik", "dataset", "--n", "100", "--out", str(out)],
         capture_output=True,
         timeout=120,
     )
     assert done.returncode == 0, done.stderr
-    assert _temporaries(tmp_path) == []
+    assert temporaries(tmp_path) == []
     assert read_dataset(out).positions.shape == (100, 3)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_dataset_stopped_by_a_signal_removes_its_temporaries(tmp_path, sig):
+def test_dataset_stopped_by_a_signal_removes_itstemporaries(tmp_path, sig):
     out = tmp_path / "pairs.npz"
-    proc = _start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], "x")
+    proc = start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], "x")
     deadline = time.monotonic() + 60
-    while not _temporaries(tmp_path) and time.monotonic() < deadline:
+    while not temporaries(tmp_path) and time.monotonic() < deadline:
         time.sleep(0.05)
     proc.send_signal(sig)
     _out, err = proc.communicate(timeout=30)
     assert proc.returncode == STATUS[sig]
     assert err.decode().strip().splitlines()[-1] == MESSAGE[sig]
-    assert _temporaries(tmp_path) == [] and not out.exists()
+    assert temporaries(tmp_path) == [] and not out.exists()
 
 
 def _dead_pid() -> int:
@@ -180,7 +138,7 @@ def test_random_kills_of_sweeps_and_datasets_leave_complete_or_nothing(tmp_path)
                 args = ["dataset", "--n", "200000", "--out", str(out / "d.npz")]
             sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
             tag = uuid.uuid4().hex
-            proc = _start(args, tag)
+            proc = start(args, tag)
             time.sleep(rng.uniform(0.15, 3.0))  # after the interpreter has started
             proc.send_signal(sig)
             _o, err = proc.communicate(timeout=60)
@@ -189,7 +147,7 @@ def test_random_kills_of_sweeps_and_datasets_leave_complete_or_nothing(tmp_path)
             statuses = (-sig, 0) if sig == signal.SIGKILL else (STATUS[sig], -sig, 0)
             assert proc.returncode in statuses, (kind, sig, err.decode()[-500:])
             assert "Traceback" not in err.decode(), err.decode()[-1500:]
-            assert _none_left(tag) == [], (kind, sig)
+            assert none_left(tag) == [], (kind, sig)
             _check_rerun(kind, out, args)
 
 
@@ -224,7 +182,7 @@ def _check_rerun(kind: str, out: Path, args: list[str]) -> None:
         )
         assert done.returncode == 0, done.stderr
         assert (out / "summary.csv").exists()
-    assert _temporaries(out) == [], _temporaries(out)
+    assert temporaries(out) == [], temporaries(out)
 
 
 @pytest.mark.slow
@@ -232,21 +190,21 @@ def test_killed_sweep_on_local_ray_takes_its_ray_processes_along(tmp_path):
     pytest.importorskip("ray")  # the ray extra; CI installs it
     tag = uuid.uuid4().hex
     args = ["sweep", str(SWEEP), "--ray", "local", "--workers", "2", "--out", str(tmp_path)]
-    proc = _start(args, tag)
+    proc = start(args, tag)
     deadline = time.monotonic() + 120
     while not list((tmp_path / "jobs").glob("*.json")) and time.monotonic() < deadline:
         time.sleep(0.2)  # Ray is up and its workers are running jobs
-    assert len(_tagged(tag)) >= 4  # the sweep, the reaper, Ray's raylet, GCS, workers
+    assert len(tagged(tag)) >= 4  # the sweep, the reaper, Ray's raylet, GCS, workers
     proc.kill()
     proc.communicate(timeout=60)
-    assert _none_left(tag, within=20) == []
+    assert none_left(tag, within=20) == []
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.1, 0.2, 0.3, 0.45])
 def test_ctrl_c_during_start_up_is_one_line_and_130(tmp_path, delay):
     """SIGINT while the command line is still importing MuJoCo and the commands."""
-    proc = _start(["scenes"], "x")
+    proc = start(["scenes"], "x")
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)

@@ -1,0 +1,81 @@
+"""Real subprocesses of the command line for the signal, output-set and disk-full tests:
+start one (tagged in its environment, so every process it starts can be found), run one
+under a file-size limit, find what is still alive, list temporaries."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+TAG = "HUMANOID_IK_TEST_TAG"
+STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}
+MESSAGE = {signal.SIGINT: "humanoid-ik: interrupted", signal.SIGTERM: "humanoid-ik: terminated"}
+
+
+def _env(tag: str) -> dict[str, str]:
+    return {**os.environ, TAG: tag, "MUJOCO_GL": "egl"}
+
+
+def start(args: list[str], tag: str = "") -> subprocess.Popen:
+    """``python -m humanoid_ik ARGS`` with pipes, its environment carrying ``tag``."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "humanoid_ik", *args],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=_env(tag),
+    )
+
+
+def run_cli(*args: str, limit: int | None = None) -> subprocess.CompletedProcess:
+    """Run the command line to its end; with ``limit``, no file it (or ffmpeg, which
+    inherits the limit) writes may grow past ``limit`` bytes: a write beyond it fails
+    as on a full disk (``RLIMIT_FSIZE``, with ``SIGXFSZ`` ignored)."""
+    code = (
+        "import resource, signal, sys\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        f"limit = {limit!r}\n"
+        "if limit: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))\n"
+        "from humanoid_ik.cli import main\n"
+        f"sys.exit(main({list(args)!r}))\n"
+    )
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=_env(""), timeout=300
+    )
+
+
+def tagged(tag: str) -> list[int]:
+    """Processes alive whose environment carries ``tag`` (a run and all it started)."""
+    needle = f"{TAG}={tag}".encode()
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            if needle in (entry / "environ").read_bytes().split(b"\0"):
+                state = (entry / "stat").read_bytes().rsplit(b")", 1)[1].split()[0]
+                if state != b"Z":
+                    pids.append(int(entry.name))
+        except OSError:
+            continue
+    return pids
+
+
+def none_left(tag: str, within: float = 10.0) -> list[int]:
+    """Wait up to ``within`` seconds for every process with ``tag`` to end; returns those
+    still alive then (and kills them, so that they do not disturb the next test)."""
+    deadline = time.monotonic() + within
+    while (alive := tagged(tag)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    for pid in alive:
+        os.kill(pid, signal.SIGKILL)
+    return alive
+
+
+def temporaries(folder: Path) -> list[str]:
+    """The temporaries (``.NAME.PID.TID.tmp...``) anywhere under ``folder``."""
+    return sorted(p.name for p in folder.rglob(".*") if ".tmp" in p.name)
