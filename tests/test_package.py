@@ -174,7 +174,7 @@ def test_wheel_carries_and_finds_its_bundled_files(tmp_path):
 def test_sdist_carries_the_bundled_folders_and_builds_the_wheel(tmp_path):
     """The sdist has the top-level folders (MANIFEST.in) and the wheel built from it maps
     them into the package (what .ci/wheel-smoke installs)."""
-    pytest.importorskip("build", reason="python -m build (CI: .ci/wheel-smoke builds it)")
+    pytest.importorskip("build", reason="python -m build: the dev extra installs it")
     src = _clean_copy(tmp_path / "src")
     dist = tmp_path / "dist"
     subprocess.run(

@@ -29,6 +29,7 @@ from PIL import Image
 from humanoid_ik.cli import main
 from humanoid_ik.config.scene import bundled_scenes, load_scene
 from humanoid_ik.errors import RenderError
+from humanoid_ik.outputs.atomic import MANIFEST, published
 from humanoid_ik.outputs.render import (
     MARKER_RADIUS,
     FrameRenderer,
@@ -200,18 +201,20 @@ def test_metrics_put_the_hand_on_reachable_targets(renders, name):
 
 @pytest.mark.slow
 def test_outputs_are_complete_and_atomic(renders):
-    """The folder holds the MP4, the PNGs, contact sheet, metrics CSV/JSON, the trajectory
-    and no temporary.
+    """The folder holds the MP4, the PNGs, contact sheet, metrics CSV/JSON, the trajectory,
+    the manifest that lists exactly those (and the publishing lock), and no temporary.
 
     Also: the contact sheet's grid, the EGL backend, and one loop time per frame within
     the whole render's time."""
     sc, out = renders["circle"]
     names = sorted(p.name for p in out.folder.iterdir())
-    assert names == sorted(
+    expected = sorted(
         ["circle.mp4", "contact_sheet.png", "metrics.csv", "metrics.json"]
         + ["trajectory.csv", "trajectory.npz"]
         + [f"frame_{i:04d}.png" for i in range(N)]
     )
+    assert names == sorted([*expected, MANIFEST, ".humanoid-ik-outputs.lock"])
+    assert published(out.folder) == expected
     assert all(p.exists() for p in out.files())
     sheet = Image.open(out.contact_sheet)
     assert sheet.size == (4 * (W + 4) + 4, 2 * (H + 4) + 4)  # 6 tiles: 4 columns, 2 rows

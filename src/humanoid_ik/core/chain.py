@@ -60,7 +60,9 @@ _STRUCTURE_FIELDS = ("jnt_type", "jnt_qposadr", "jnt_bodyid", "body_parentid")
 
 
 def _snapshot(model: mujoco.MjModel, fields: Sequence[str]) -> tuple[bytes, ...]:
-    return tuple(getattr(model, f).tobytes() for f in fields)
+    # a list, not a generator: every solve calls this, and a generator per call left
+    # garbage for the cyclic collector (the heap of a long run grew until it ran)
+    return tuple([getattr(model, f).tobytes() for f in fields])
 
 
 def _check_args(model: Any, site: Any, body: Any, joints: Any) -> None:
