@@ -86,6 +86,21 @@ def test_view_model_and_site(tmp_path):
     assert np.ptp(e.target, axis=0).max() == 0.0
 
 
+@pytest.mark.slow
+def test_view_urdf_model_and_body(tmp_path):
+    """`--model arm7.urdf --body tool_link`: a URDF arm without sites, on the default
+    stage; the tool link is held at its home position."""
+    urdf = Path(__file__).resolve().parents[1] / "examples" / "urdf_arm" / "arm7.urdf"
+    args = ("--model", str(urdf), "--body", "tool_link", "--solver", "lm", "--duration", "0.5")
+    proc, out = view(tmp_path, *args)
+    assert proc.returncode == 0, proc.stderr
+    t = load_trajectory(out / "trajectory.npz")
+    e = t.effectors[0]
+    assert e.solver == "lm" and t.n_frames == 15
+    assert e.position_error.max() < 1e-6
+    assert len(t.joint_names) == 7
+
+
 def _children(pid: int) -> list[int]:
     """The processes whose parent is ``pid`` (from /proc)."""
     out = []
@@ -146,7 +161,7 @@ def test_view_without_display(monkeypatch, capsys):
 def test_view_bad_input(capsys):
     """A scene with --site, an unknown solver: exit 2, one line."""
     assert main(["view", "circle", "--site", "left_palm_site"]) == 2
-    assert "give a SCENE or --model/--site, not both" in capsys.readouterr().err
+    assert "give a SCENE or --model/--site/--body, not both" in capsys.readouterr().err
     assert main(["view", "circle", "--duration", "0"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "expected a number of seconds > 0, got '0'" in err

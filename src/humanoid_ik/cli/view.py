@@ -1,11 +1,12 @@
 """The ``view`` subcommand of ``humanoid-ik``: MuJoCo's interactive viewer, live.
 
-``humanoid-ik view [SCENE | --model PATH --site NAME] [--solver NAME] [--duration S]
+``humanoid-ik view [SCENE | --model PATH --site NAME | --body NAME] [--solver NAME]
+[--duration S]
 [--out DIR]`` opens the viewer with the targets as mocap bodies: the scene's motions
 play (space pauses them), any target can be dragged (double-click it, then Ctrl +
 right-drag; Backspace hands it back to its motion) and the solver tracks it live. With
-``--model``/``--site`` there is one target, still at the site's home position until
-dragged. ``--out`` writes the trajectory of the frames shown on exit.
+``--model``/``--site`` (or ``--body``, a URDF link) there is one target, still at the end
+effector's home position until dragged. ``--out`` writes the trajectory of the frames shown on exit.
 """
 
 from __future__ import annotations
@@ -22,23 +23,24 @@ __all__ = ["register"]
 
 
 def _point_scene(args: argparse.Namespace) -> Any:
-    """A one-target scene on ``--model`` at ``--site``: the target waits at the site's
-    home position until dragged."""
+    """A one-target scene on ``--model`` at ``--site`` or ``--body``: the target waits at
+    the end effector's home position until dragged."""
     from humanoid_ik.config.specs import EffectorSpec, Scene, SolverSpec
     from humanoid_ik.core.chain import Chain
     from humanoid_ik.core.models import bundled_model_path
     from humanoid_ik.motion import TargetTrack
     from humanoid_ik.motion.paths import Points
 
-    chain = Chain(args.model, args.site)
+    chain = Chain(args.model, args.site, body=args.body)
     home = chain.position.copy()
+    site, body = (chain.ee_name, None) if chain.ee_kind == "site" else (None, chain.ee_name)
     return Scene(
         name="view",
         duration=60.0,
         fps=30.0,
-        solver=SolverSpec(args.solver or "dls"),
+        solver=SolverSpec(args.solver or "auto"),
         targets=(TargetTrack("target", Points(points=home[None, :])),),
-        effectors=(EffectorSpec(chain.ee_name, "target"),),
+        effectors=(EffectorSpec(site, "target", body=body),),
         model=Path(args.model) if args.model is not None else bundled_model_path(),
     )
 
@@ -47,8 +49,8 @@ def _cmd_view(args: argparse.Namespace) -> int:
     from humanoid_ik.config.scene import check_scene, load_scene
     from humanoid_ik.outputs.viewer import check_display, view_scene
 
-    if args.scene is not None and (args.model is not None or args.site is not None):
-        raise UsageError("give a SCENE or --model/--site, not both")
+    if args.scene is not None and (args.model, args.site, args.body) != (None, None, None):
+        raise UsageError("give a SCENE or --model/--site/--body, not both")
     check_display()
     if args.scene is None:
         scene = _point_scene(args)
@@ -103,9 +105,13 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "scene", nargs="?", metavar="SCENE", help="a scene .toml file or a bundled scene name"
     )
-    p.add_argument("--model", type=nonempty_path, help="MJCF path (default: the bundled humanoid)")
-    p.add_argument("--site", help="end-effector site (default: right_palm_site)")
-    p.add_argument("--solver", metavar="NAME", help="the solver (default: the scene's, or dls)")
+    p.add_argument(
+        "--model", type=nonempty_path, help="MJCF or URDF path (default: the bundled humanoid)"
+    )
+    ee = p.add_mutually_exclusive_group()
+    ee.add_argument("--site", help="end-effector site (default: right_palm_site)")
+    ee.add_argument("--body", help="end-effector body, e.g. a URDF link (instead of --site)")
+    p.add_argument("--solver", metavar="NAME", help="the solver (default: the scene's, or auto)")
     p.add_argument(
         "--duration", type=_duration, metavar="S", help="close after S seconds of frames"
     )
