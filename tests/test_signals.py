@@ -24,6 +24,22 @@ from tests.processes import MESSAGE, STATUS, none_left, start, tagged, temporari
 SWEEP = bundled_dir("sweeps") / "compare_solvers.toml"
 
 
+def _wait_mid_run(folder: Path, written: int = 4_000_000, within: float = 120.0) -> None:
+    """Wait until a dataset run has written ``written`` bytes of raw chunks into its
+    temporary folder under ``folder``: well inside a run of a million pairs (about
+    110 MB), whatever the machine's speed."""
+    deadline = time.monotonic() + within
+    while time.monotonic() < deadline:
+        try:
+            size = sum(p.stat().st_size for p in folder.rglob("*.raw"))
+        except FileNotFoundError:  # a file went away while being listed
+            size = 0
+        if size >= written:
+            return
+        time.sleep(0.02)
+    raise AssertionError(f"the dataset under {folder} never wrote {written} bytes")
+
+
 def _wait_for(path: Path, within: float = 60.0) -> None:
     deadline = time.monotonic() + within
     while not path.exists():
@@ -55,11 +71,8 @@ def test_killed_sweep_leaves_no_worker_and_frees_the_callers_pipes(tmp_path, sig
 def test_dataset_killed_leaves_temporaries_that_the_next_run_removes(tmp_path):
     out = tmp_path / "pairs.npz"
     tag = uuid.uuid4().hex
-    proc = start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], tag)
-    deadline = time.monotonic() + 60
-    while not temporaries(tmp_path) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert temporaries(tmp_path), "the dataset never started writing"
+    proc = start(["dataset", "--n", "1000000", "--chunk", "4096", "--out", str(out)], tag)
+    _wait_mid_run(tmp_path)
     proc.kill()
     proc.communicate(timeout=30)
     assert not out.exists() and temporaries(tmp_path)  # what SIGKILL leaves behind
@@ -77,10 +90,8 @@ def test_dataset_killed_leaves_temporaries_that_the_next_run_removes(tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_dataset_stopped_by_a_signal_removes_itstemporaries(tmp_path, sig):
     out = tmp_path / "pairs.npz"
-    proc = start(["dataset", "--n", "400000", "--chunk", "4096", "--out", str(out)], "x")
-    deadline = time.monotonic() + 60
-    while not temporaries(tmp_path) and time.monotonic() < deadline:
-        time.sleep(0.05)
+    proc = start(["dataset", "--n", "1000000", "--chunk", "4096", "--out", str(out)], "x")
+    _wait_mid_run(tmp_path)
     proc.send_signal(sig)
     _out, err = proc.communicate(timeout=30)
     assert proc.returncode == STATUS[sig]
