@@ -227,3 +227,18 @@ def test_ctrl_c_during_start_up_is_one_line_and_130(tmp_path, delay):
         assert text == "" and b"showcase" in out
     elif proc.returncode != 0:  # else the listing can finish first on a fast machine
         assert proc.returncode == 130 and text.strip() == "humanoid-ik: interrupted"
+
+
+def test_ctrl_c_that_a_compiled_import_turned_into_import_error_counts_as_ctrl_c():
+    """MuJoCo's extension reports a Ctrl-C during its initialisation as
+    ``ImportError: initialization failed`` caused by the ``KeyboardInterrupt``."""
+    from humanoid_ik.cli import _interrupted
+
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise ImportError("initialization failed") from exc
+    except ImportError as exc:
+        assert _interrupted(exc)
+    assert not _interrupted(ImportError("No module named 'mujoco'"))
