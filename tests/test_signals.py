@@ -24,6 +24,14 @@ from tests.processes import MESSAGE, STATUS, none_left, start, tagged, temporari
 SWEEP = bundled_dir("sweeps") / "compare_solvers.toml"
 
 
+def _command(pid: int) -> str:
+    """A process's command line (for a failure message)."""
+    try:
+        return (Path("/proc") / str(pid) / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return "?"
+
+
 def _wait_mid_run(folder: Path, written: int = 4_000_000, within: float = 120.0) -> None:
     """Wait until a dataset run has written ``written`` bytes of raw chunks into its
     temporary folder under ``folder``: well inside a run of a million pairs (about
@@ -208,7 +216,8 @@ def test_killed_sweep_on_local_ray_takes_its_ray_processes_along(tmp_path):
     assert len(tagged(tag)) >= 4  # the sweep, the reaper, Ray's raylet, GCS, workers
     proc.kill()
     proc.communicate(timeout=60)
-    assert none_left(tag, within=20) == []
+    left = {pid: _command(pid) for pid in tagged(tag)}
+    assert none_left(tag, within=30) == [], left
 
 
 @pytest.mark.slow

@@ -239,7 +239,8 @@ a sweep, for the reaper (``experiments/sweep/reaper.py``)."""
 def _fate_shared() -> Iterator[None]:
     """Processes started in the block (a local Ray instance) die with this process,
     however it dies: they inherit a tag in their environment, and a reaper process
-    kills every process with the tag when this one's pipe to it closes."""
+    kills every process with the tag when this one's pipe to it closes (at once after
+    a normal end, for some seconds after this process was killed)."""
     tag = uuid.uuid4().hex
     reaper = subprocess.Popen(
         [sys.executable, os.path.join(os.path.dirname(__file__), "reaper.py"), RAY_TAG_ENV, tag],
@@ -254,7 +255,11 @@ def _fate_shared() -> Iterator[None]:
     finally:
         os.environ.pop(RAY_TAG_ENV, None)
         if reaper.stdin is not None:
-            reaper.stdin.close()
+            try:  # Ray was shut down here: one pass of the reaper is enough
+                reaper.stdin.write(b"done\n")
+                reaper.stdin.close()
+            except OSError:
+                pass
         reaper.wait()
 
 
