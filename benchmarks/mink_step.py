@@ -31,6 +31,7 @@ from typing import Any
 
 import mink
 import numpy as np
+from solvers import ROBOT_ARM  # benchmarks/solvers.py, beside this script
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import on_target
@@ -40,15 +41,6 @@ from humanoid_ik.core.types import Target
 from humanoid_ik.experiments.bench import make_targets
 from humanoid_ik.solvers.mink import MinkSolver, UpperBodyIK
 
-ROBOT_ARM = (
-    "r_sh_pitch",
-    "r_sh_roll",
-    "r_sh_yaw",
-    "r_elbow",
-    "r_wr_roll",
-    "r_wr_pitch",
-    "r_wr_yaw",
-)
 ARMS: dict[str, Callable[[], Chain]] = {
     "humanoid": lambda: Chain(),
     "robot": lambda: Chain(

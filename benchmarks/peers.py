@@ -68,6 +68,7 @@ from humanoid_ik.solvers import SOLVERS, make_solver
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mink_step import PlainMinkLoop  # noqa: E402  (the one plain mink loop)
+from solvers import ROBOT_ARM  # noqa: E402  (benchmarks/solvers.py: the arm's joints)
 
 HERE = Path(__file__).resolve().parent
 DM_PYTHON = HERE / ".venv-dm" / "bin" / "python"
@@ -115,15 +116,7 @@ ARMS: dict[str, Arm] = {
         "models/robot, right arm (7 hinges, offset elbow)",
         "bundled:robot/robot.xml",
         "right_hand_site",
-        joints=(
-            "r_sh_pitch",
-            "r_sh_roll",
-            "r_sh_yaw",
-            "r_elbow",
-            "r_wr_roll",
-            "r_wr_pitch",
-            "r_wr_yaw",
-        ),
+        joints=tuple(ROBOT_ARM),
     ),
     "jaco": Arm(
         "Kinova Jaco, dm_control (6 hinges)",
