@@ -42,7 +42,17 @@ def test_bench_json_document(tmp_path):
     """to_dict has the documented keys and survives json."""
     report = run_bench(Chain(), "position", solvers=["dls"], n=5, seed=0, model_name="m.xml")
     doc = json.loads(json.dumps(report.to_dict()))
-    assert set(doc) == {"model", "site", "joints", "task", "n", "seed", "results", "repeat"}
+    assert set(doc) == {
+        "model",
+        "site",
+        "effector",
+        "joints",
+        "task",
+        "n",
+        "seed",
+        "results",
+        "repeat",
+    }
     assert set(doc["results"][0]) == {
         "solver",
         "success_rate",

@@ -190,8 +190,11 @@ def test_cli_solve_and_bench_by_body(capsys, tmp_path):
             str(out_json),
         ]
     )
-    capsys.readouterr()
-    rows = {r["solver"]: r for r in json.loads(out_json.read_text())["results"]}
+    printed = capsys.readouterr().out
+    assert "  body tool_link  task position" in printed.splitlines()[0]
+    doc = json.loads(out_json.read_text())
+    rows = {r["solver"]: r for r in doc["results"]}
+    assert doc["site"] == "tool_link" and doc["effector"] == "body"
     assert code == 0 and rows["dls"]["success_rate"] == 1.0 and rows["ccd"]["success_rate"] == 1.0
 
 

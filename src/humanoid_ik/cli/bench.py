@@ -54,7 +54,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     print(
-        f"model {report.model}  site {report.site}  task {report.task}  n {report.n}  "
+        f"model {report.model}  {report.effector} {report.site}  task {report.task}  n {report.n}  "
         f"seed {report.seed}" + (f"  repeat {report.repeat}" if report.repeat > 1 else "")
     )
     print(report.table())

@@ -84,6 +84,8 @@ class BenchReport:
     seed: int
     results: list[BenchRow]
     repeat: int = 1
+    effector: str = "site"
+    """What ``site`` names: a ``site`` or a ``body`` (a URDF link)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -196,7 +198,9 @@ def run_bench(
     targets = make_targets(chain, n, seed, pose)
     rows = [_bench_one(chain, name, targets, pose, progress, repeat) for name in names]
     joints = list(chain.joint_names)
-    return BenchReport(model_name, chain.ee_name, joints, task, n, seed, rows, repeat)
+    return BenchReport(
+        model_name, chain.ee_name, joints, task, n, seed, rows, repeat, chain.ee_kind
+    )
 
 
 class Trials(NamedTuple):
