@@ -217,7 +217,9 @@ def test_killed_sweep_on_local_ray_takes_its_ray_processes_along(tmp_path):
     proc.kill()
     proc.communicate(timeout=60)
     left = {pid: _command(pid) for pid in tagged(tag)}
-    assert none_left(tag, within=30) == [], left
+    # the raylet, GCS and workers go at once; in some runs two of Ray's agents, started
+    # late, end only on their own, about 70 s after their raylet (docs/sweeps.md)
+    assert none_left(tag, within=120) == [], left
 
 
 @pytest.mark.slow
