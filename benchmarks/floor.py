@@ -9,7 +9,9 @@ iteration of ``lm`` and ``dls``, per model (process CPU time, microseconds).
   in numpy after ``mj_kinematics``, the alternative to ``mj_comPos`` + ``mj_jacSite``.
 - ``lm`` and ``dls``: the slope of a solve's CPU time over its iteration count (solves
   of K and of 0 iterations from the same starts, tolerances 0 so none stops early),
-  for position (3 rows) and pose (6 rows) targets, and the ratio to ``floor``.
+  for position (3 rows) and pose (6 rows) targets, and the ratio to ``floor``; ``lm``
+  with its compiled loop (the default, ``solvers/jacobian/lm_loop.py``) and with its
+  Python loop.
 
     .venv/bin/python benchmarks/floor.py [--k 200] [--n 20]
 """
@@ -27,6 +29,8 @@ from solvers import MODELS as ARMS  # benchmarks/solvers.py, beside this script
 
 from humanoid_ik import Chain, make_solver
 from humanoid_ik.experiments.bench import make_targets
+from humanoid_ik.solvers.jacobian import lm_loop
+from humanoid_ik.solvers.jacobian.lm import LM
 
 MODELS = dict(list(ARMS.items())[:4])  # the 7- and 8-hinge arms and a 5-hinge one
 
@@ -71,8 +75,9 @@ def floor_calls(c: Chain) -> tuple[Callable[[], None], Callable[[], None], Calla
     return floor, c_only, columns
 
 
-def per_iteration(c: Chain, name: str, pose: bool, k: int, n: int) -> float:
-    """CPU time of one iteration of solver ``name`` [us] (the slope over ``k``)."""
+def per_iteration(c: Chain, name: str, pose: bool, k: int, n: int, compiled: bool = True) -> float:
+    """CPU time of one iteration of solver ``name`` [us] (the slope over ``k``); for
+    ``lm``, ``compiled`` picks its compiled or its Python loop."""
     targets = make_targets(c, n, 1, pose)
     starts = [c.random_q(np.random.default_rng(i)) for i in range(n)]
     spent = []
@@ -80,6 +85,9 @@ def per_iteration(c: Chain, name: str, pose: bool, k: int, n: int) -> float:
         s = make_solver(
             name, tol=0.0, rot_tol=0.0, restarts=0, max_iterations=iters, stall_window=k + 1
         )
+        if isinstance(s, LM):
+            s.compiled = compiled
+        s.solve(c, targets[0], starts[0])  # buffers built before the clock starts
         t0 = time.process_time()
         for tgt, q0 in zip(targets, starts, strict=True):
             s.solve(c, tgt, q0)
@@ -92,26 +100,29 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--k", type=int, default=200, help="iterations per timed solve")
     p.add_argument("--n", type=int, default=20, help="solves per measurement")
     args = p.parse_args(argv)
-    print("CPU time per call or iteration [us]; ratio = per iteration / floor")
+    if not lm_loop.AVAILABLE:
+        print(f"note: lm's compiled loop is not available ({lm_loop.REASON})")
+    print("CPU time per call or iteration [us]; (ratio) = per iteration / floor")
     print()
     print(
-        "| model | floor | C calls | numpy columns | lm position | lm pose | dls position "
-        "| dls pose | lm pose / floor |"
+        "| model | floor | C calls | numpy columns | lm position | lm pose "
+        "| lm position, Python loop | lm pose, Python loop | dls position | dls pose |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for label, spec in MODELS.items():
         c = Chain(**spec)
         floor, c_only, columns = floor_calls(c)
         f, co, cols = cpu_us(floor), cpu_us(c_only), cpu_us(columns)
-        its = {
-            (name, pose): per_iteration(c, name, pose, args.k, args.n)
-            for name in ("lm", "dls")
+        runs = [("lm", True), ("lm", False), ("dls", True)]
+        cells = [
+            per_iteration(c, name, pose, args.k, args.n, compiled)
+            for name, compiled in runs
             for pose in (False, True)
-        }
+        ]
+        lm_cells = " | ".join(f"{t:.2f} ({t / f:.1f}x)" for t in cells[:4])
         print(
-            f"| {label} | {f:.2f} | {co:.2f} | {cols:.2f} | {its['lm', False]:.2f} "
-            f"({its['lm', False] / f:.1f}x) | {its['lm', True]:.2f} | {its['dls', False]:.2f} "
-            f"| {its['dls', True]:.2f} | {its['lm', True] / f:.1f} |"
+            f"| {label} | {f:.2f} | {co:.2f} | {cols:.2f} | {lm_cells} "
+            f"| {cells[4]:.2f} | {cells[5]:.2f} |"
         )
     return 0
 

@@ -182,6 +182,7 @@ def test_module_and_console_script_share_main():
         timeout=60,
     )
     assert proc.returncode == 0 and proc.stdout.startswith("humanoid-ik ")
+    assert "lm loop compiled" in proc.stdout, proc.stdout  # the build this suite tests
 
 
 def test_option_values_are_typed(capsys):

@@ -4,6 +4,9 @@ starts, and FK(IK(x)) = x on the bundled, ``models/robot`` and fixture arms."""
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 
 import mujoco
 import numpy as np
@@ -14,6 +17,7 @@ from humanoid_ik.core.measures import orientation_error
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.core.types import Status, Target
 from humanoid_ik.experiments.bench import make_targets, run_trials
+from humanoid_ik.solvers.jacobian import lm_loop
 
 from .chains import MODELS, SMALL_ARM_XML, chain, fixture
 from .test_solvers import ROBOT, ROBOT_ARM
@@ -280,3 +284,64 @@ def test_follows_a_model_changed_in_place():
     assert res.converged and -1.5 <= res.q[3] <= -0.5
     p2, R2 = c.fk(res.q)
     assert np.linalg.norm(p2 - p) < 1e-4 and orientation_error(R2, mat_to_quat(R)) < 1e-3
+
+
+def _far_targets(c: Chain, n: int, rng: np.random.Generator) -> list[Target]:
+    """Targets beyond reach (twice as far from the chain's first joint as a reachable
+    one) or, for half of them, a reachable position with a random orientation."""
+    base = c.data.xanchor[c.joint_ids[0]].copy()
+    out = []
+    for t in make_targets(c, n, 7, True):
+        if len(out) % 2:
+            out.append(Target(base + 2.0 * (t.position - base)))
+        else:
+            q = rng.normal(size=4)
+            out.append(Target(t.position, q / np.linalg.norm(q)))
+    return out
+
+
+@pytest.mark.parametrize("name", list(_arms()))
+def test_compiled_loop_matches_the_python_loop(name, rng):
+    """The compiled loop (solvers/jacobian/_lm_loop.c) gives the Python loop's answers bit
+    for bit, iterations and statuses included: reachable position and pose targets
+    solved one after the other (each warm-starting from the last), unreachable targets
+    (stalls, restarts, the best pose returned) and solves capped with tolerance 0."""
+    assert lm_loop.AVAILABLE, lm_loop.REASON  # the suite tests the compiled build
+    c = _arms()[name]
+    cases = [
+        ({}, make_targets(c, 25, 5, False)),
+        ({}, make_targets(c, 25, 6, True)),
+        ({"restarts": 3}, _far_targets(c, 6, rng)),
+        ({"tol": 0.0, "rot_tol": 0.0, "restarts": 1, "max_iterations": 20, "stall_window": 100},
+         make_targets(c, 4, 8, True)),
+    ]  # fmt: skip
+    for options, targets in cases:
+        answers = []
+        for compiled in (True, False):
+            solver = make_solver("lm", **options)
+            solver.compiled = compiled
+            c.reset()
+            answers.append([solver.solve(c, t) for t in targets])
+        for got, want in zip(*answers, strict=True):
+            np.testing.assert_array_equal(got.q, want.q)
+            assert (got.iterations, got.status) == (want.iterations, want.status)
+            assert got.position_error == want.position_error
+        if "max_iterations" in options:  # tolerance 0: every start runs to its cap
+            assert all(r.iterations == 40 for r in answers[0])
+        assert all(c.within_limits(r.q, tol=0.0) for r in answers[0])
+
+
+def test_python_loop_on_request():
+    """HUMANOID_IK_LM_LOOP=python runs lm's Python loop, says so, and still solves."""
+    code = (
+        "from humanoid_ik import Chain, make_solver\n"
+        "from humanoid_ik.solvers.jacobian import lm_loop\n"
+        "s = make_solver('lm')\n"
+        "r = s.solve(Chain(), [0.35, -0.30, 1.15])\n"
+        "print(lm_loop.AVAILABLE, s.compiled, r.converged, lm_loop.REASON)\n"
+    )
+    env = {**os.environ, "HUMANOID_IK_LM_LOOP": "python"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert out.stdout == "False False True HUMANOID_IK_LM_LOOP=python\n", out.stderr

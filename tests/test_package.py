@@ -8,6 +8,7 @@ import pkgutil
 import shutil
 import subprocess
 import sys
+import sysconfig
 import tarfile
 import zipfile
 from pathlib import Path
@@ -101,7 +102,7 @@ def test_bundled_folders_of_a_checkout():
 def _clean_copy(dest: Path) -> Path:
     """The files a build reads, copied without the checkout's build leftovers."""
     keep = ["pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "src", *BUNDLED]
-    ignore = shutil.ignore_patterns("__pycache__", "*.egg-info", "*.pyc")
+    ignore = shutil.ignore_patterns("__pycache__", "*.egg-info", "*.pyc", "*.so")
     dest.mkdir(parents=True)
     for name in keep:
         src = REPO / name
@@ -168,6 +169,48 @@ def test_wheel_carries_and_finds_its_bundled_files(tmp_path):
     assert res.returncode == 0 and res.stdout.splitlines()[1].startswith("circle ")
     res = run("-m", "humanoid_ik", "solve", "--target", "0.35,-0.30,1.15", "--solver", "dls")
     assert res.returncode == 0 and "converged" in res.stdout, res.stderr
+    # lm's loop is compiled into the wheel and loaded from there
+    assert [n for n in names if "_lm_loop" in n] == [
+        f"humanoid_ik/solvers/jacobian/_lm_loop{sysconfig.get_config_var('EXT_SUFFIX')}"
+    ]
+    res = run("-m", "humanoid_ik", "--version")
+    assert "lm loop compiled" in res.stdout, res.stdout + res.stderr
+
+
+def _wheel(src: Path, dist: Path, env: dict[str, str] | None = None) -> Path:
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(src)],
+        check=True,
+        capture_output=True,
+        timeout=600,
+        env=env,
+    )
+    (wheel,) = dist.glob("humanoid_ik-*.whl")
+    return wheel
+
+
+@pytest.mark.slow
+def test_without_a_c_compiler_the_wheel_builds_and_lm_runs_its_python_loop(tmp_path):
+    """The compiled loop is optional: with a compiler that fails (CC=false), the wheel
+    still builds, has no compiled file, and lm solves with its Python loop, which
+    --version reports."""
+    src = _clean_copy(tmp_path / "src")
+    wheel = _wheel(src, tmp_path / "dist", {**os.environ, "CC": "false"})
+    with zipfile.ZipFile(wheel) as z:
+        assert not [n for n in z.namelist() if "_lm_loop" in n], z.namelist()
+        z.extractall(tmp_path / "site")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path / "site")}
+    probe = subprocess.run(
+        [sys.executable, "-m", "humanoid_ik", "--version"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert "lm loop Python (not compiled" in probe.stdout, probe.stdout + probe.stderr
+    solve = subprocess.run(
+        [sys.executable, "-m", "humanoid_ik", "solve", "--target", "0.35,-0.30,1.15",
+         "--solver", "lm"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert "converged" in solve.stdout, solve.stdout + solve.stderr
 
 
 @pytest.mark.slow
@@ -187,6 +230,7 @@ def test_sdist_carries_the_bundled_folders_and_builds_the_wheel(tmp_path):
     with tarfile.open(sdist) as t:
         names = {n.split("/", 1)[1] for n in t.getnames() if "/" in n}
     assert {"models/humanoid/scene.xml", "scenes/circle.toml", "setup.py"} <= names
+    assert "src/humanoid_ik/solvers/jacobian/_lm_loop.c" in names
     (wheel,) = dist.glob("humanoid_ik-*.whl")
     with zipfile.ZipFile(wheel) as z:
         assert "humanoid_ik/_bundled/scenes/circle.toml" in z.namelist()

@@ -50,6 +50,20 @@ class Terminated(KeyboardInterrupt):
     loop's and the commands' Ctrl-C handling applies), then exits 143."""
 
 
+class _Version(argparse.Action):
+    """``--version``: the package, MuJoCo, and whether ``lm`` runs its compiled loop
+    (imported only when asked, so other commands start without it)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import mujoco
+
+        from humanoid_ik.solvers.jacobian import lm_loop
+
+        loop = "compiled" if lm_loop.AVAILABLE else f"Python ({lm_loop.REASON})"
+        print(f"humanoid-ik {version('humanoid-ik')} (mujoco {mujoco.__version__}, lm loop {loop})")
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser of every command."""
     parser = Parser(
@@ -57,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     parser.add_argument(
-        "--version", action="version", version=f"humanoid-ik {version('humanoid-ik')}"
+        "--version", action=_Version, nargs=0, help="show the version and the build, then exit"
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True

@@ -30,6 +30,12 @@ end effector), ``J' W J`` and ``J' W e`` by MuJoCo's ``mju_sqrMatTD`` /
 The Jacobian from MuJoCo is cheaper than the chain's own columns ``axis x (p - anchor)``
 in numpy (see ``docs/lm.md`` for the figures).
 
+That loop runs in C where it is built (:mod:`.lm_loop`, ``_lm_loop.c``: one call from
+Python per start, the same MuJoCo calls in the same order, the same answers bit for
+bit); ``LM._descend`` is the same loop in Python, the reference and the fallback
+(:attr:`LM.compiled`). From Python an iteration costs 3.3-5 times MuJoCo's FK +
+Jacobian call, in C 0.4-0.8 times it (``benchmarks/floor.py``).
+
 A start that stalls (less than 1 % progress of ``E`` in ``stall_window`` iterations) or
 reaches ``max_iterations`` is followed by the next start, up to ``restarts``: the seed
 library's poses nearest the target alternating with seeded random in-range poses
@@ -59,6 +65,7 @@ from numpy.typing import NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.jacobian import lm_loop
 from humanoid_ik.solvers.jacobian.loop import OPTION_BOUNDS
 from humanoid_ik.solvers.jacobian.seeds import restart_poses, seed_library
 from humanoid_ik.solvers.options import SolverOptions
@@ -139,6 +146,47 @@ class _Work:
         adr = chain.qpos_adr
         contiguous = bool(np.all(np.diff(adr) == 1))
         self.qpos_view = d.qpos[int(adr[0]) : int(adr[-1]) + 1] if contiguous else None
+        self.native: lm_loop.Problem | None = None
+
+    def compile(self, options: LMOptions) -> None:
+        """Set up the compiled loop on these buffers (:mod:`.lm_loop`)."""
+        chain, n, d = self.chain, self.chain.n, self.chain.data
+        self.target_pos = np.empty(3)
+        self.ranges = (chain.lower, chain.upper)
+        J = self.J if self.J.flags.c_contiguous else np.empty((self.rows, n))
+        arrays = {
+            "qadr": chain.qpos_adr, "dof": chain.dof_adr, "qpos": d.qpos, "xpos": self.xpos,
+            "body_quat": self.body_quat, "body_mat": self.body_mat,
+            "target_pos": self.target_pos, "target_body": self.target_body, "jac": chain._jac,
+            "J": J, "w": self.w, "H": self.H, "eye": self.eye, "g": self.g, "Hx": self.Hx,
+            "R": self.R, "e": self.e, "q_err": self.q_err, "x": np.empty(n),
+            "best_q": np.empty(n), "history": np.empty(options.stall_window),
+            "lower": chain.lower, "upper": chain.upper,
+        }  # fmt: skip
+        ints = {
+            "n": n, "rows": self.rows, "nv": chain.model.nv, "ee_id": chain.ee_id,
+            "max_iterations": options.max_iterations, "window": options.stall_window,
+        }  # fmt: skip
+        floats = {
+            "tol": options.tol, "rot_tol": options.rot_tol, "wr": self.wr,
+            "damp_e": options.error_damping * 0.5, "damp_0": options.min_damping,
+        }  # fmt: skip
+        site = chain.ee_kind == "site"
+        self.native = lm_loop.Problem(chain.model, d, arrays, ints, floats, site)
+
+    def descend_native(
+        self, target: Target, q: NDArray[np.float64]
+    ) -> tuple[bool, int, float, float, float]:
+        """One start in the compiled loop (the same steps as ``LM._descend``)."""
+        native = self.native
+        assert native is not None
+        chain = self.chain
+        if self.ranges[0] is not chain.lower or self.ranges[1] is not chain.upper:
+            self.ranges = (chain.lower, chain.upper)  # re-read by Chain.sync
+            native.set_array("lower", chain.lower)
+            native.set_array("upper", chain.upper)
+        self.target_pos[:] = target.position
+        return native.descend(q)
 
 
 def _body_target(work: _Work, quat: NDArray[np.float64]) -> None:
@@ -166,6 +214,10 @@ class LM(Solver):
     options: LMOptions
 
     _work: _Work | None = None
+    compiled: bool = lm_loop.AVAILABLE
+    """Whether solves run the compiled iteration loop (:mod:`.lm_loop`; the answers
+    are the same bit for bit). False where it is not built or
+    ``HUMANOID_IK_LM_LOOP=python``; set it False on a solver to run the Python loop."""
 
     def prepare(self, chain: Chain) -> None:
         """Build the chain's seed library (used by the restarts) before any timed solve."""
@@ -181,14 +233,22 @@ class LM(Solver):
         work = self._work
         if work is None or work.chain is not chain or work.rows != rows:
             work = self._work = _Work(chain, rows, self.options.orientation_weight)
+        if self.compiled and work.native is None:
+            work.compile(self.options)
         return work
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
         work = self._buffers_for(chain, 6 if target.quat is not None else 3)
         best_q, best_cost = q0.copy(), math.inf
         iterations = 0
+        native = self.compiled and work.native is not None
+        if target.quat is not None:
+            _body_target(work, target.quat)
         for q in self.starts(chain, q0, target):
-            ok, its, cost, ep, er = self._descend(work, target, q)
+            if native:
+                ok, its, cost, ep, er = work.descend_native(target, q)
+            else:
+                ok, its, cost, ep, er = self._descend(work, target, q)
             iterations += its
             if ok:
                 rot = er if target.quat is not None else None
@@ -201,7 +261,8 @@ class LM(Solver):
         self, work: _Work, target: Target, q: NDArray[np.float64]
     ) -> tuple[bool, int, float, float, float]:
         """Iterate from ``q``, which ends at the converged pose (inside the ranges) or
-        at the best pose of this start.
+        at the best pose of this start. ``_lm_loop.c`` is this loop statement by
+        statement: change both.
 
         Returns:
             ``(converged, iterations, cost, position error, orientation error)``: the
@@ -220,8 +281,6 @@ class LM(Solver):
         damp_e, damp_0 = o.error_damping * 0.5, o.min_damping
         tp, tq = target.position, work.target_body
         pose = target.quat is not None
-        if target.quat is not None:
-            _body_target(work, target.quat)
         xpos, jacp, jacr, eid = work.xpos, chain._jacp, chain._jacr, chain.ee_id
         body_quat, body_mat = work.body_quat, work.body_mat
         e, e_p, e_r, J, jac_cols, w = work.e, work.e_p, work.e_r, work.J, work.jac_cols, work.w

@@ -1,0 +1,161 @@
+"""The compiled iteration loop of ``lm`` (``_lm_loop.c``), loaded through ctypes.
+
+From Python an ``lm`` iteration is about a dozen calls into MuJoCo at 0.3-1 µs each,
+3.3-5 times the cost of the FK + Jacobian call it is built on (``benchmarks/floor.py``).
+``_lm_loop.c`` runs the same loop in C, calling the same MuJoCo functions in the same
+order, so a start costs one call from Python and its iterations cost little more than
+MuJoCo's own work; the answers are the Python loop's, bit for bit.
+
+The C file needs no MuJoCo or Python header: the MuJoCo functions are passed as
+addresses taken from MuJoCo's own shared library (the one the ``mujoco`` package
+loaded), the model and data as opaque pointers, and the arrays it reads and writes as
+pointers into ``MjData`` and the solver's buffers. It is compiled when the package is
+installed (``setup.py``, an optional extension: without a C compiler the install still
+succeeds and ``lm`` runs the Python loop). :data:`AVAILABLE` says which loop ``lm``
+runs; the environment variable ``HUMANOID_IK_LM_LOOP=python`` selects the Python loop.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import os
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["AVAILABLE", "REASON", "Problem"]
+
+_PTR = ctypes.c_void_p
+_API = (
+    ("kinematics", "mj_kinematics"),
+    ("com_pos", "mj_comPos"),
+    ("jac", None),  # mj_jacSite or mj_jacBody, per problem
+    ("sub3", "mju_sub3"),
+    ("norm3", "mju_norm3"),
+    ("scl3", "mju_scl3"),
+    ("sub_quat", "mju_subQuat"),
+    ("mul_mat_vec3", "mju_mulMatVec3"),
+    ("sqr_mat_td", "mju_sqrMatTD"),
+    ("add_to_scl", "mju_addToScl"),
+    ("mul_mat_t_vec", "mju_mulMatTVec"),
+    ("mul_mat_vec", "mju_mulMatVec"),
+    ("box_qp", "mju_boxQP"),
+)
+
+
+class _Api(ctypes.Structure):
+    _fields_ = [(name, _PTR) for name, _ in _API]
+
+
+_INTS = ("n", "rows", "nv", "ee_id", "max_iterations", "window")
+_ARRAYS = (
+    "qadr", "dof", "qpos", "xpos", "body_quat", "body_mat", "target_pos", "target_body",
+    "jac", "J", "w", "H", "eye", "g", "Hx", "R", "e", "q_err", "x", "best_q", "history",
+    "lower", "upper",
+)  # fmt: skip
+_FLOATS = ("tol", "rot_tol", "wr", "damp_e", "damp_0")
+
+
+class _Problem(ctypes.Structure):
+    _fields_ = (
+        [("m", _PTR), ("d", _PTR)]
+        + [(k, ctypes.c_int) for k in _INTS]
+        + [(k, _PTR) for k in _ARRAYS]
+        + [(k, ctypes.c_double) for k in _FLOATS]
+    )
+
+
+def _load() -> tuple[Any, Any, Any, str]:
+    """``(loop function, jac_site address, jac_body address, reason)``: the compiled
+    loop bound to MuJoCo's library, or ``None`` and why not."""
+    if os.environ.get("HUMANOID_IK_LM_LOOP", "").strip().lower() == "python":
+        return None, None, None, "HUMANOID_IK_LM_LOOP=python"
+    spec = importlib.util.find_spec(f"{__package__}._lm_loop")
+    if spec is None or not spec.origin:
+        return None, None, None, "not compiled (no C compiler when the package was installed)"
+    libs = sorted(Path(mujoco.__file__).parent.glob("libmujoco*"))
+    if not libs:
+        return None, None, None, "MuJoCo's shared library was not found in the mujoco package"
+    try:
+        lib = ctypes.CDLL(spec.origin)
+        mj = ctypes.CDLL(str(libs[0]))
+        addr = {c: ctypes.cast(getattr(mj, c), _PTR).value for _, c in _API if c}
+        addr.update({c: ctypes.cast(getattr(mj, c), _PTR).value for c in _JACS})
+    except (OSError, AttributeError) as exc:
+        return None, None, None, f"could not be loaded: {exc}"
+    fn = lib.lm_descend
+    fn.restype = ctypes.c_int
+    fn.argtypes = [_PTR, _PTR, _PTR, _PTR]
+    global _api
+    _api = _Api(**{name: addr[c] for name, c in _API if c})
+    return fn, addr["mj_jacSite"], addr["mj_jacBody"], ""
+
+
+_JACS = ("mj_jacSite", "mj_jacBody")
+_api: _Api | None = None
+_descend, _JAC_SITE, _JAC_BODY, REASON = _load()
+AVAILABLE: bool = _descend is not None
+"""Whether ``lm`` runs the compiled loop (:data:`REASON` says why not)."""
+
+
+def _address(a: NDArray[Any]) -> int:
+    return int(a.__array_interface__["data"][0])
+
+
+class Problem:
+    """The compiled loop's view of one ``lm`` work buffer set: pointers to the chain's
+    data and the buffers, set once; :meth:`descend` runs one start.
+
+    Args:
+        arrays: name -> array of every pointer field (``_ARRAYS``), each C-contiguous
+            float64 (``qadr`` and ``dof`` int64), alive as long as this object.
+        ints, floats: the integer and float fields.
+        site: whether the end effector is a site (``mj_jacSite``) or a body.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        arrays: dict[str, NDArray[Any]],
+        ints: dict[str, int],
+        floats: dict[str, float],
+        site: bool,
+    ):
+        if _descend is None or _api is None:
+            raise RuntimeError(f"the compiled lm loop is not available: {REASON}")
+        self._keep = dict(arrays)  # the buffers must outlive the pointers
+        for name, a in arrays.items():
+            want = np.int64 if name in ("qadr", "dof") else np.float64
+            if a.dtype != want or not a.flags.c_contiguous:
+                raise ValueError(f"lm loop buffer {name!r} must be C-contiguous {want.__name__}")
+        self._p = _Problem(
+            m=model._address,
+            d=data._address,
+            **{k: _address(a) for k, a in arrays.items()},
+            **ints,
+            **floats,
+        )
+        self._api = _Api.from_buffer_copy(_api)
+        self._api.jac = _JAC_SITE if site else _JAC_BODY
+        self._out = np.empty(4)
+        self._ptrs = (ctypes.addressof(self._api), ctypes.addressof(self._p))
+        self._out_ptr = _address(self._out)
+
+    def set_array(self, name: str, a: NDArray[np.float64]) -> None:
+        """Point field ``name`` at ``a`` (kept alive here), e.g. re-read joint ranges."""
+        self._keep[name] = a
+        setattr(self._p, name, _address(a))
+
+    def descend(self, q: NDArray[np.float64]) -> tuple[bool, int, float, float, float]:
+        """One start from ``q`` (C-contiguous float64, written with the answer), as
+        ``LM._descend``: ``(converged, iterations, cost, position error, orientation
+        error)``."""
+        assert _descend is not None
+        ok = _descend(self._ptrs[0], self._ptrs[1], _address(q), self._out_ptr)
+        out = self._out
+        return bool(ok), int(out[0]), float(out[1]), float(out[2]), float(out[3])
