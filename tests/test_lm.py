@@ -7,6 +7,7 @@ import math
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -345,3 +346,27 @@ def test_python_loop_on_request():
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120
     )
     assert out.stdout == "False False True HUMANOID_IK_LM_LOOP=python\n", out.stderr
+
+
+@pytest.mark.slow
+def test_floor_benchmark_reports_both_loops():
+    """benchmarks/floor.py prints one row per arm with the floor and lm's per-iteration
+    cost in both loops, each with its ratio to that row's floor (speed itself is the
+    benchmark's business, not a test's)."""
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run(
+        [sys.executable, str(root / "benchmarks" / "floor.py"), "--k", "10", "--n", "3"],
+        capture_output=True, text=True, timeout=300, cwd=root,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    rows = [
+        line for line in out.stdout.splitlines() if line.startswith("| ") and "|---" not in line
+    ]
+    assert rows[0].startswith("| model | floor | C calls |") and "lm pose, Python loop" in rows[0]
+    assert len(rows) == 5 and "not available" not in out.stdout
+    for row in rows[1:]:
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        floor = float(cells[1])
+        for cell in cells[4:8]:  # "1.37 (0.7x)": lm per iteration, its ratio (both rounded)
+            value, ratio = cell.split()
+            assert float(ratio.strip("(x)")) == pytest.approx(float(value) / floor, abs=0.1)
