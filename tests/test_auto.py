@@ -21,7 +21,7 @@ from .test_solvers import ROBOT
 
 
 @pytest.mark.parametrize(
-    ("make", "position", "pose"),
+    ("make", "python_position", "pose"),
     [
         (lambda: Chain(), "closed_form", "closed_form"),
         (lambda: Chain(ROBOT, "right_hand_site"), "lm", "lm"),  # waist + 7 hinges
@@ -31,12 +31,17 @@ from .test_solvers import ROBOT
         (lambda: chain(CCD_XML, "p3"), "two_link", "lm"),
     ],
 )
-def test_choice_per_chain_and_task(make, position, pose):
-    """closed_form where the chain is shoulder-elbow-wrist; two_link for a position
-    target on a chain it places whole; lm otherwise."""
+def test_choice_per_chain_and_task(make, python_position, pose):
+    """Pose targets: closed_form where the chain is shoulder-elbow-wrist, else lm.
+    Position targets: lm with its compiled loop; with its Python loop, closed_form,
+    else two_link on a chain it places whole, else lm."""
     c = make()
     auto = make_solver("auto")
-    assert auto.choice(c, False).name == position
+    assert auto.lm.compiled  # the suite tests the compiled build
+    assert auto.choice(c, False).name == "lm"
+    assert auto.choice(c, True).name == pose
+    auto.lm.compiled = False
+    assert auto.choice(c, False).name == python_position
     assert auto.choice(c, True).name == pose
 
 
@@ -68,10 +73,12 @@ def test_same_answer_as_the_chosen_solver(right_arm):
 
 
 def test_position_miss_of_the_closed_form_falls_back_to_lm(right_arm):
-    """closed_form keeps the wrist for a position target and misses some reachable
-    ones; auto then solves them with lm from the same start and records both."""
+    """With lm's Python loop auto runs closed_form first on position targets; it keeps
+    the wrist and misses some reachable ones; auto then solves them with lm from the
+    same start and records both."""
     c = right_arm
     closed, auto = make_solver("closed_form"), make_solver("auto")
+    auto.lm.compiled = False
     missed = []
     for tgt in make_targets(c, 300, 0, False):
         c.reset()
@@ -96,12 +103,21 @@ def test_unreachable_pose_is_not_retried(right_arm):
 
 
 def test_unreachable_position_keeps_the_closer_answer(right_arm):
-    """A point 3 m away: closed_form and lm both miss; the answer is the closer of the
-    two and the chain's scratch data is at it."""
-    res = make_solver("auto").solve(right_arm, [3.0, 0.0, 1.2])
+    """A point 3 m away. With lm's Python loop closed_form and lm both miss; the
+    answer is the closer of the two and the chain's scratch data is at it. With the
+    compiled loop lm runs first, then closed_form, and the answer is the same."""
+    auto = make_solver("auto")
+    auto.lm.compiled = False
+    res = auto.solve(right_arm, [3.0, 0.0, 1.2])
     assert not res.converged and res.details["auto"] == ("closed_form", "lm")
     np.testing.assert_allclose(right_arm.q, res.q)
     assert right_arm.within_limits(res.q, tol=0.0)
+    right_arm.reset()
+    compiled = make_solver("auto").solve(right_arm, [3.0, 0.0, 1.2])
+    assert compiled.details["auto"] == ("lm", "closed_form")  # lm's miss, then the closed form
+    np.testing.assert_array_equal(compiled.q, res.q)
+    assert compiled.status is res.status is Status.UNREACHABLE
+    np.testing.assert_allclose(right_arm.q, compiled.q)
 
 
 def test_options_reach_the_solvers_it_runs(right_arm):
@@ -114,18 +130,20 @@ def test_options_reach_the_solvers_it_runs(right_arm):
 def test_library_default_is_auto(right_arm):
     """solve() without a solver name runs auto."""
     res = solve(right_arm, [0.3, -0.25, 1.1])
-    assert res.converged and res.details["auto"][0] == "closed_form"
+    assert res.converged and res.details["auto"] == ("lm",)
+    res = solve(right_arm, right_arm.position, quat=mat_to_quat(right_arm.rotation))
+    assert res.converged and res.details["auto"] == ("closed_form",)
 
 
 def test_cli_solve_prints_the_choice(capsys):
-    """`humanoid-ik solve` defaults to auto and prints 'solver auto -> closed_form';
-    --json records the choice in details."""
+    """`humanoid-ik solve` defaults to auto and prints 'solver auto -> lm' (a position
+    target); --json records the choice in details."""
     assert main(["solve", "--target", "0.3,-0.25,1.1"]) == 0
     out = capsys.readouterr().out
-    assert out.splitlines()[0].startswith("solver auto -> closed_form: converged")
+    assert out.splitlines()[0].startswith("solver auto -> lm: converged")
     assert main(["solve", "--target", "0.3,-0.25,1.1", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["solver"] == "closed_form" and doc["details"]["auto"] == ["closed_form"]
+    assert doc["solver"] == "lm" and doc["details"]["auto"] == ["lm"]
 
 
 def test_scene_default_solver_is_auto():

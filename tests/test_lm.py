@@ -370,3 +370,30 @@ def test_floor_benchmark_reports_both_loops():
         for cell in cells[4:8]:  # "1.37 (0.7x)": lm per iteration, its ratio (both rounded)
             value, ratio = cell.split()
             assert float(ratio.strip("(x)")) == pytest.approx(float(value) / floor, abs=0.1)
+
+
+def test_seed_library_ranks_by_distance_and_angle(right_arm):
+    """The restart poses come nearest first: the ranking equals a brute-force sort of
+    distance + 0.3 m/rad x (1 - cos angle) from each pose's own FK, and the poses
+    restart_poses hands out alternate library (in that order) and random ones."""
+    from humanoid_ik.core.rotations import quat_to_mat
+    from humanoid_ik.solvers.jacobian.seeds import restart_poses, seed_library
+
+    c = right_arm
+    lib = seed_library(c)
+    for tgt in (*make_targets(c, 2, 11, False), *make_targets(c, 2, 12, True)):
+        cost = np.linalg.norm(lib.positions - tgt.position, axis=1)
+        if tgt.quat is not None:
+            R = quat_to_mat(tgt.quat)
+            cos = (np.einsum("ij,nij->n", R, lib.rotations) - 1.0) / 2.0
+            cost = cost + 0.3 * (1.0 - cos)
+        want = np.argsort(cost)[:6]
+        got = lib.nearest(tgt, 6)
+        np.testing.assert_array_equal(got, lib.q[want])
+        p, _ = c.fk(got[0])  # the library's FK is MuJoCo's
+        np.testing.assert_allclose(p, lib.positions[want[0]], atol=1e-12)
+        starts = list(restart_poses(c, c.q, tgt, restarts=5, library_seeds=2, seed=0))
+        np.testing.assert_array_equal(starts[1], lib.q[want[0]])
+        np.testing.assert_array_equal(starts[3], lib.q[want[1]])
+        assert not any(np.array_equal(s, q) for s in starts[5:] for q in lib.q[want[:3]])
+        assert all(c.within_limits(s) for s in starts)
