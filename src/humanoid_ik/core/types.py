@@ -135,6 +135,14 @@ class IKResult:
         if isinstance(self.details, dict):
             object.__setattr__(self, "details", MappingProxyType(self.details.copy()))
 
+    def with_details(self, **extra: Any) -> IKResult:
+        """This result with ``extra`` added to its ``details`` (the other fields shared:
+        they are immutable, ``q`` read-only), without re-checking them."""
+        new = object.__new__(IKResult)
+        new.__dict__.update(self.__dict__)
+        object.__setattr__(new, "details", MappingProxyType({**self.details, **extra}))
+        return new
+
     def to_dict(self, joint_names: list[str] | None = None) -> dict[str, Any]:
         """A JSON-ready dict (joint values by name when ``joint_names`` is given; the
         ``details`` key only when the solver reported some)."""

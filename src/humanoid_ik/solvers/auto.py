@@ -115,8 +115,4 @@ class Auto(Solver):
                     result = retry
                 else:
                     chain.set_q(result.q)  # the scratch data at the returned pose
-        r = result  # the same result with the choice added to its details
-        return IKResult(
-            r.q, r.converged, r.iterations, r.position_error, r.orientation_error, r.status,
-            r.solver, r.message, {**r.details, "auto": tried},
-        )  # fmt: skip
+        return result.with_details(auto=tried)  # the choice added to its details

@@ -143,8 +143,9 @@ class Problem:
         self._api = _Api.from_buffer_copy(_api)
         self._api.jac = _JAC_SITE if site else _JAC_BODY
         self._out = np.empty(4)
+        self._q = np.empty(ints["n"])  # the start and the answer pass through here
         self._ptrs = (ctypes.addressof(self._api), ctypes.addressof(self._p))
-        self._out_ptr = _address(self._out)
+        self._out_ptr, self._q_ptr = _address(self._out), _address(self._q)
 
     def set_array(self, name: str, a: NDArray[np.float64]) -> None:
         """Point field ``name`` at ``a`` (kept alive here), e.g. re-read joint ranges."""
@@ -152,10 +153,12 @@ class Problem:
         setattr(self._p, name, _address(a))
 
     def descend(self, q: NDArray[np.float64]) -> tuple[bool, int, float, float, float]:
-        """One start from ``q`` (C-contiguous float64, written with the answer), as
+        """One start from ``q`` (``(n,)``, written with the answer), as
         ``LM._descend``: ``(converged, iterations, cost, position error, orientation
         error)``."""
         assert _descend is not None
-        ok = _descend(self._ptrs[0], self._ptrs[1], _address(q), self._out_ptr)
-        out = self._out
-        return bool(ok), int(out[0]), float(out[1]), float(out[2]), float(out[3])
+        self._q[:] = q
+        ok = _descend(self._ptrs[0], self._ptrs[1], self._q_ptr, self._out_ptr)
+        q[:] = self._q
+        out = self._out.tolist()
+        return bool(ok), int(out[0]), out[1], out[2], out[3]
