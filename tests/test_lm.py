@@ -397,3 +397,43 @@ def test_seed_library_ranks_by_distance_and_angle(right_arm):
         np.testing.assert_array_equal(starts[3], lib.q[want[1]])
         assert not any(np.array_equal(s, q) for s in starts[5:] for q in lib.q[want[:3]])
         assert all(c.within_limits(s) for s in starts)
+
+
+def test_threads_on_a_shared_model_match_one_thread():
+    """The compiled loop runs without the GIL: two threads, each with its own chain and
+    solver on one shared MjModel, give the serial answers bit for bit."""
+    import threading
+
+    model = Chain().model
+    targets = make_targets(Chain(model), 30, 21, True)
+
+    def run(out: list) -> None:
+        c, s = Chain(model), make_solver("lm")
+        out.extend(s.solve(c, t).q for t in targets)
+
+    serial: list = []
+    run(serial)
+    outs: list[list] = [[], []]
+    threads = [threading.Thread(target=run, args=(o,)) for o in outs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for out in outs:
+        assert len(out) == len(serial)
+        for q, q1 in zip(out, serial, strict=True):
+            np.testing.assert_array_equal(q, q1)
+
+
+def test_a_compiled_loop_older_than_its_source_is_not_used(tmp_path):
+    """In a checkout, a compiled loop built before the last edit of _lm_loop.c is stale
+    (lm then runs its Python loop and --version says why); a wheel has no source."""
+    source, compiled = tmp_path / "_lm_loop.c", tmp_path / "_lm_loop.so"
+    compiled.write_bytes(b"")
+    source.write_text("")
+    os.utime(compiled, (1_000, 1_000))
+    os.utime(source, (2_000, 2_000))
+    assert lm_loop.stale(source, compiled)
+    os.utime(compiled, (3_000, 3_000))
+    assert not lm_loop.stale(source, compiled)
+    assert not lm_loop.stale(tmp_path / "missing.c", compiled)

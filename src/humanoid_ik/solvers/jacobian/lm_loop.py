@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["AVAILABLE", "REASON", "Problem"]
+__all__ = ["AVAILABLE", "REASON", "Problem", "stale"]
 
 _PTR = ctypes.c_void_p
 _API = (
@@ -69,6 +69,13 @@ class _Problem(ctypes.Structure):
     )
 
 
+def stale(source: Path, compiled: Path) -> bool:
+    """Whether ``compiled`` was built before ``source`` last changed (in a checkout,
+    after an edit of the C file and before the next ``pip install -e .``; a wheel has no
+    source beside it)."""
+    return source.exists() and source.stat().st_mtime > compiled.stat().st_mtime
+
+
 def _load() -> tuple[Any, Any, Any, str]:
     """``(loop function, jac_site address, jac_body address, reason)``: the compiled
     loop bound to MuJoCo's library, or ``None`` and why not."""
@@ -77,6 +84,8 @@ def _load() -> tuple[Any, Any, Any, str]:
     spec = importlib.util.find_spec(f"{__package__}._lm_loop")
     if spec is None or not spec.origin:
         return None, None, None, "not compiled (no C compiler when the package was installed)"
+    if stale(Path(__file__).with_name("_lm_loop.c"), Path(spec.origin)):
+        return None, None, None, "compiled before the last change to _lm_loop.c; pip install -e ."
     libs = sorted(Path(mujoco.__file__).parent.glob("libmujoco*"))
     if not libs:
         return None, None, None, "MuJoCo's shared library was not found in the mujoco package"
