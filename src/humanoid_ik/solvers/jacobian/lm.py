@@ -33,8 +33,8 @@ in numpy (see ``docs/lm.md`` for the figures).
 That loop runs in C where it is built (:mod:`.lm_loop`, ``_lm_loop.c``: one call from
 Python per start, the same MuJoCo calls in the same order, the same answers bit for
 bit); ``LM._descend`` is the same loop in Python, the reference and the fallback
-(:attr:`LM.compiled`). From Python an iteration costs 3.3-5 times MuJoCo's FK +
-Jacobian call, in C 0.4-0.8 times it (``benchmarks/floor.py``).
+(:attr:`LM.compiled`). From Python an iteration costs 3.2-5 times MuJoCo's FK +
+Jacobian call, in C 0.4-0.7 times it (``benchmarks/floor.py``).
 
 A start that stalls (less than 1 % progress of ``E`` in ``stall_window`` iterations) or
 reaches ``max_iterations`` is followed by the next start, up to ``restarts``: the seed

@@ -1,7 +1,7 @@
 """The compiled iteration loop of ``lm`` (``_lm_loop.c``), loaded through ctypes.
 
 From Python an ``lm`` iteration is about a dozen calls into MuJoCo at 0.3-1 µs each,
-3.3-5 times the cost of the FK + Jacobian call it is built on (``benchmarks/floor.py``).
+3.2-5 times the cost of the FK + Jacobian call it is built on (``benchmarks/floor.py``).
 ``_lm_loop.c`` runs the same loop in C, calling the same MuJoCo functions in the same
 order, so a start costs one call from Python and its iterations cost little more than
 MuJoCo's own work; the answers are the Python loop's, bit for bit.
