@@ -402,23 +402,18 @@ def test_seed_library_ranks_by_distance_and_angle(right_arm):
 def test_threads_on_a_shared_model_match_one_thread():
     """The compiled loop runs without the GIL: two threads, each with its own chain and
     solver on one shared MjModel, give the serial answers bit for bit."""
-    import threading
+    from concurrent.futures import ThreadPoolExecutor
 
     model = Chain().model
     targets = make_targets(Chain(model), 30, 21, True)
 
-    def run(out: list) -> None:
+    def run(_: int = 0) -> list:
         c, s = Chain(model), make_solver("lm")
-        out.extend(s.solve(c, t).q for t in targets)
+        return [s.solve(c, t).q for t in targets]
 
-    serial: list = []
-    run(serial)
-    outs: list[list] = [[], []]
-    threads = [threading.Thread(target=run, args=(o,)) for o in outs]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    serial = run()
+    with ThreadPoolExecutor(2) as pool:
+        outs = list(pool.map(run, range(2)))
     for out in outs:
         assert len(out) == len(serial)
         for q, q1 in zip(out, serial, strict=True):
