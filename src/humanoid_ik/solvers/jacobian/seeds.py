@@ -8,7 +8,6 @@ vectors and their FK (from MuJoCo), built once per chain.
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterator
 
 import numpy as np
@@ -65,11 +64,6 @@ class SeedLibrary:
             i = int(np.argmin(cost))
             cost[i] = np.inf
             yield self.q[i]
-
-    def nearest(self, target: Target, k: int, length: float = 0.3) -> NDArray[np.float64]:
-        """The ``k`` poses ``(k, n)`` nearest ``target``, nearest first (:meth:`ranked`)."""
-        poses = list(itertools.islice(self.ranked(target, length), k))
-        return np.array(poses).reshape(len(poses), self.q.shape[1])
 
 
 def seed_library(chain: Chain, size: int = 4000, seed: int = 7) -> SeedLibrary:
