@@ -21,7 +21,7 @@ import ctypes
 import importlib.util
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -76,38 +76,41 @@ def stale(source: Path, compiled: Path) -> bool:
     return source.exists() and source.stat().st_mtime > compiled.stat().st_mtime
 
 
-def _load() -> tuple[Any, Any, Any, str]:
-    """``(loop function, jac_site address, jac_body address, reason)``: the compiled
-    loop bound to MuJoCo's library, or ``None`` and why not."""
+class _Loaded(NamedTuple):
+    descend: Any  # lm_descend from the compiled file
+    api: _Api  # MuJoCo's functions, ``jac`` unset
+    jac_site: int  # mj_jacSite and mj_jacBody: one of them per problem
+    jac_body: int
+
+
+def _load() -> tuple[_Loaded | None, str]:
+    """The compiled loop bound to MuJoCo's library, or ``None`` and why not."""
     if os.environ.get("HUMANOID_IK_LM_LOOP", "").strip().lower() == "python":
-        return None, None, None, "HUMANOID_IK_LM_LOOP=python"
+        return None, "HUMANOID_IK_LM_LOOP=python"
     spec = importlib.util.find_spec(f"{__package__}._lm_loop")
     if spec is None or not spec.origin:
-        return None, None, None, "not compiled (no C compiler when the package was installed)"
+        return None, "not compiled (no C compiler when the package was installed)"
     if stale(Path(__file__).with_name("_lm_loop.c"), Path(spec.origin)):
-        return None, None, None, "compiled before the last change to _lm_loop.c; pip install -e ."
+        return None, "compiled before the last change to _lm_loop.c; pip install -e ."
     libs = sorted(Path(mujoco.__file__).parent.glob("libmujoco*"))
     if not libs:
-        return None, None, None, "MuJoCo's shared library was not found in the mujoco package"
+        return None, "MuJoCo's shared library was not found in the mujoco package"
     try:
         lib = ctypes.CDLL(spec.origin)
         mj = ctypes.CDLL(str(libs[0]))
-        addr = {c: ctypes.cast(getattr(mj, c), _PTR).value for _, c in _API if c}
-        addr.update({c: ctypes.cast(getattr(mj, c), _PTR).value for c in _JACS})
+        names = [c for _, c in _API if c] + ["mj_jacSite", "mj_jacBody"]
+        addr = {c: int(ctypes.cast(getattr(mj, c), _PTR).value or 0) for c in names}
+        fn = lib.lm_descend
     except (OSError, AttributeError) as exc:
-        return None, None, None, f"could not be loaded: {exc}"
-    fn = lib.lm_descend
+        return None, f"could not be loaded: {exc}"
     fn.restype = ctypes.c_int
     fn.argtypes = [_PTR, _PTR, _PTR, _PTR]
-    global _api
-    _api = _Api(**{name: addr[c] for name, c in _API if c})
-    return fn, addr["mj_jacSite"], addr["mj_jacBody"], ""
+    api = _Api(**{name: addr[c] for name, c in _API if c})
+    return _Loaded(fn, api, addr["mj_jacSite"], addr["mj_jacBody"]), ""
 
 
-_JACS = ("mj_jacSite", "mj_jacBody")
-_api: _Api | None = None
-_descend, _JAC_SITE, _JAC_BODY, REASON = _load()
-AVAILABLE: bool = _descend is not None
+_LOADED, REASON = _load()
+AVAILABLE: bool = _LOADED is not None
 """Whether ``lm`` runs the compiled loop (:data:`REASON` says why not)."""
 
 
@@ -135,8 +138,9 @@ class Problem:
         floats: dict[str, float],
         site: bool,
     ):
-        if _descend is None or _api is None:
+        if _LOADED is None:
             raise RuntimeError(f"the compiled lm loop is not available: {REASON}")
+        self._fn = _LOADED.descend
         self._keep = dict(arrays)  # the buffers must outlive the pointers
         for name, a in arrays.items():
             want = np.int64 if name in ("qadr", "dof") else np.float64
@@ -149,8 +153,8 @@ class Problem:
             **ints,
             **floats,
         )
-        self._api = _Api.from_buffer_copy(_api)
-        self._api.jac = _JAC_SITE if site else _JAC_BODY
+        self._api = _Api.from_buffer_copy(_LOADED.api)
+        self._api.jac = _LOADED.jac_site if site else _LOADED.jac_body
         self._out = np.empty(4)
         self._q = np.empty(ints["n"])  # the start and the answer pass through here
         self._ptrs = (ctypes.addressof(self._api), ctypes.addressof(self._p))
@@ -165,9 +169,8 @@ class Problem:
         """One start from ``q`` (``(n,)``, written with the answer), as
         ``LM._descend``: ``(converged, iterations, cost, position error, orientation
         error)``."""
-        assert _descend is not None
         self._q[:] = q
-        ok = _descend(self._ptrs[0], self._ptrs[1], self._q_ptr, self._out_ptr)
+        ok = self._fn(self._ptrs[0], self._ptrs[1], self._q_ptr, self._out_ptr)
         q[:] = self._q
         out = self._out.tolist()
         return bool(ok), int(out[0]), out[1], out[2], out[3]
