@@ -23,6 +23,14 @@ def _run(capsys, *argv):
     return code, out, err
 
 
+def _solve_pose_json(capsys, target, quat, solver: str):
+    """`solve --target --quat --solver --json` with every digit of the target and quat."""
+    exact = [",".join(f"{v:.17g}" for v in values) for values in (target, quat)]
+    return _run(
+        capsys, "solve", "--target", exact[0], "--quat", exact[1], "--solver", solver, "--json"
+    )
+
+
 def test_solve_prints_joints_and_errors(capsys):
     """solve prints every joint of the chain and a sub-millimetre error; exit 0."""
     code, out, err = _run(capsys, "solve", "--target", "0.3,-0.3,1.1", "--solver", "dls")
@@ -37,17 +45,7 @@ def test_solve_json_reaches_target(capsys):
     chain = Chain()
     target, R = chain.fk([0.5, 0.3, 0.2, 1.2, 0.1, 0.2, 0.1])
     quat = mat_to_quat(R)
-    code, out, _ = _run(
-        capsys,
-        "solve",
-        "--target",
-        ",".join(f"{v:.17g}" for v in target),
-        "--quat",
-        ",".join(f"{v:.17g}" for v in quat),
-        "--solver",
-        "pseudoinverse",
-        "--json",
-    )
+    code, out, _ = _solve_pose_json(capsys, target, quat, "pseudoinverse")
     doc = json.loads(out)
     assert code == 0 and doc["status"] == "converged" and doc["site"] == "right_palm_site"
     p, _ = chain.fk([doc["q"][n] for n in chain.joint_names])
@@ -225,17 +223,7 @@ def test_negative_numbers_in_target_and_quat(capsys):
     target, R = chain.fk(q)
     quat = -mat_to_quat(R)  # the same rotation, its w negative
     assert target[1] < 0 and quat[0] < 0
-    code, out, err = _run(
-        capsys,
-        "solve",
-        "--target",
-        ",".join(f"{v:.17g}" for v in target),
-        "--quat",
-        ",".join(f"{v:.17g}" for v in quat),
-        "--solver",
-        "dls",
-        "--json",
-    )
+    code, out, err = _solve_pose_json(capsys, target, quat, "dls")
     assert code == 0 and err == ""
     doc = json.loads(out)
     np.testing.assert_allclose(doc["target"]["position"], target)
