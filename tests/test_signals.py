@@ -246,7 +246,7 @@ def test_ctrl_c_during_start_up_is_one_line_and_130(tmp_path, delay):
 def test_ctrl_c_that_a_compiled_import_turned_into_import_error_counts_as_ctrl_c():
     """MuJoCo's extension reports a Ctrl-C during its initialisation as
     ``ImportError: initialization failed`` caused by the ``KeyboardInterrupt``."""
-    from humanoid_ik.cli import _interrupted
+    from humanoid_ik.cli import interrupted
 
     try:
         try:
@@ -254,5 +254,27 @@ def test_ctrl_c_that_a_compiled_import_turned_into_import_error_counts_as_ctrl_c
         except KeyboardInterrupt as exc:
             raise ImportError("initialization failed") from exc
     except ImportError as exc:
-        assert _interrupted(exc)
-    assert not _interrupted(ImportError("No module named 'mujoco'"))
+        assert interrupted(exc)
+    assert not interrupted(ImportError("No module named 'mujoco'"))
+
+
+def test_ctrl_c_that_ctypes_wrapped_counts_as_ctrl_c():
+    """A Ctrl-C while ctypes converts a call's argument (PyOpenGL's calls as MuJoCo
+    loads EGL) comes out as ``ctypes.ArgumentError: argument 1: KeyboardInterrupt``;
+    other argument errors stay errors."""
+    import ctypes
+
+    from humanoid_ik.cli import interrupted
+
+    class Interrupts:
+        @property
+        def _as_parameter_(self):
+            raise KeyboardInterrupt
+
+    libc = ctypes.CDLL(None)
+    with pytest.raises(ctypes.ArgumentError) as caught:
+        libc.abs(Interrupts())
+    assert interrupted(caught.value)
+    with pytest.raises(ctypes.ArgumentError) as wrong:
+        libc.abs(object())
+    assert not interrupted(wrong.value)

@@ -23,6 +23,7 @@ from humanoid_ik.cli import (
     dataset,
     export,
     inspect,
+    interrupted,
     replay,
     run,
     scenes,
@@ -128,7 +129,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Exception) as exc:  # compiled code may report one otherwise
+        if not interrupted(exc):
+            raise
         print(f"humanoid-ik: {'terminated' if sigterms else 'interrupted'}", file=sys.stderr)
         return EXIT_TERMINATED if sigterms else EXIT_INTERRUPTED
     except SystemExit as exc:  # --help
