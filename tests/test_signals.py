@@ -246,7 +246,7 @@ def test_ctrl_c_during_start_up_is_one_line_and_130(tmp_path, delay):
 def test_ctrl_c_that_a_compiled_import_turned_into_import_error_counts_as_ctrl_c():
     """MuJoCo's extension reports a Ctrl-C during its initialisation as
     ``ImportError: initialization failed`` caused by the ``KeyboardInterrupt``."""
-    from humanoid_ik.cli import interrupted
+    from humanoid_ik.cli.interrupts import interrupted
 
     try:
         try:
@@ -264,7 +264,7 @@ def test_ctrl_c_that_ctypes_wrapped_counts_as_ctrl_c():
     other argument errors stay errors."""
     import ctypes
 
-    from humanoid_ik.cli import interrupted
+    from humanoid_ik.cli.interrupts import interrupted
 
     class Interrupts:
         @property

@@ -23,7 +23,6 @@ from humanoid_ik.cli import (
     dataset,
     export,
     inspect,
-    interrupted,
     replay,
     run,
     scenes,
@@ -32,6 +31,7 @@ from humanoid_ik.cli import (
     view,
 )
 from humanoid_ik.cli.args import Parser
+from humanoid_ik.cli.interrupts import interrupted
 from humanoid_ik.errors import HumanoidIKError
 
 __all__ = ["build_parser", "main"]
