@@ -1,17 +1,17 @@
-"""A kinematic chain of hinge joints on any MuJoCo model.
+"""A kinematic chain of hinge joints on a robot: a light view over its state.
 
 MuJoCo is the single source of truth for where things are: the chain writes ``qpos``,
 runs ``mj_kinematics`` and reads ``site_xpos``/``site_xmat`` (or ``xpos``/``xmat`` for a
-body end effector) and ``mj_jacSite``/``mj_jacBody``. The chain owns a scratch ``MjData``;
-the caller's ``MjData`` is read with :meth:`Chain.load` and only written by
-:meth:`Chain.apply`.
+body end effector) and ``mj_jacSite``/``mj_jacBody``. The chain owns no ``MjData`` and
+no buffer: it works in its :class:`~humanoid_ik.core.robot.Robot`'s one scratch state,
+which every chain of that robot shares. The caller's ``MjData`` is read with
+:meth:`Chain.load` and only written by :meth:`Chain.apply`.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import threading
 from collections.abc import Callable, Hashable, Sequence
 from typing import Any, TypeVar
 
@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.checks import float_array
-from humanoid_ik.core.models import home_qpos, load_model, reset_to_home
+from humanoid_ik.core.models import home_qpos
+from humanoid_ik.core.robot import Robot, joint_name, names
 from humanoid_ik.errors import (
     ChainError,
     ModelError,
@@ -42,35 +43,8 @@ _JOINT_TYPE_NAMES = {
 }
 
 
-# what the chain and the caches derived from it read from the model: when one of these
-# changes on a live MjModel, the chain re-reads its ranges and drops its caches (sync)
-_KINEMATIC_FIELDS = (
-    "jnt_range",
-    "jnt_limited",
-    "jnt_axis",
-    "jnt_pos",
-    "body_pos",
-    "body_quat",
-    "site_pos",
-    "site_quat",
-    "qpos0",
-)
-# what makes an MjData fit a model: its joints, in order, and the tree they move
-_STRUCTURE_FIELDS = ("jnt_type", "jnt_qposadr", "jnt_bodyid", "body_parentid")
-
-
-def _snapshot(model: mujoco.MjModel, fields: Sequence[str]) -> tuple[bytes, ...]:
-    # a list, not a generator: every solve calls this, and a generator per call left
-    # garbage for the cyclic collector (the heap of a long run grew until it ran)
-    return tuple([getattr(model, f).tobytes() for f in fields])
-
-
-def _check_args(model: Any, site: Any, body: Any, joints: Any) -> None:
-    """One :class:`ChainError` for a model, end effector or joint list of the wrong type."""
-    if model is not None and not isinstance(model, (mujoco.MjModel, str, os.PathLike)):
-        raise ChainError(
-            f"model must be a mujoco.MjModel or a model file path, got {type(model).__name__}"
-        )
+def _check_args(site: Any, body: Any, joints: Any) -> None:
+    """One :class:`ChainError` for an end effector or joint list of the wrong type."""
     for what, value in (("site", site), ("body", body)):
         if value is not None and not isinstance(value, str):
             raise ChainError(f"{what} must be a name (a string), got {value!r}")
@@ -80,20 +54,13 @@ def _check_args(model: Any, site: Any, body: Any, joints: Any) -> None:
         raise ChainError(f"joints must be a list of joint names, got {joints!r}")
 
 
-def _names(model: mujoco.MjModel, objtype: mujoco.mjtObj, count: int) -> list[str]:
-    out = []
-    for i in range(count):
-        name = mujoco.mj_id2name(model, objtype, i)
-        if name:
-            out.append(name)
-    return out
-
-
 class Chain:
-    """Hinge joints from a root to an end-effector site or body.
+    """Hinge joints from a root to an end-effector site or body, on a robot's state.
 
     Args:
-        model: an ``MjModel``, an MJCF path, or ``None`` for the bundled humanoid (an
+        model: a :class:`~humanoid_ik.core.robot.Robot` (the chain shares its state with
+            the robot's other chains), or an ``MjModel``, an MJCF/URDF path or ``None``
+            for the bundled humanoid (the chain then gets a robot state of its own; an
             MJCF string: :meth:`from_xml_string`).
         site: end-effector site name (default ``right_palm_site`` when ``body`` is unset).
         joints: joint names; by default the hinge joints on the path from the end
@@ -102,32 +69,38 @@ class Chain:
 
     Raises:
         ModelError, NameNotFoundError, UnsupportedJointError, ChainError.
+
+    Attributes:
+        robot: the robot state the chain works in (``model`` and ``data`` are its).
+        joint_ids, joint_names, qpos_adr, dof_adr: the chain's joints, in dof order.
+        ee_kind, ee_id, ee_name: the end effector (``"site"`` or ``"body"``).
+        key: ``(ee_kind, ee_id, joint ids)``, what makes two chains of a robot the same.
     """
 
     def __init__(
         self,
-        model: mujoco.MjModel | str | os.PathLike | None = None,
+        model: Robot | mujoco.MjModel | str | os.PathLike | None = None,
         site: str | None = None,
         joints: Sequence[str] | None = None,
         *,
         body: str | None = None,
     ):
-        _check_args(model, site, body, joints)
-        self.model = load_model(model)
-        m = self.model
+        _check_args(site, body, joints)
+        self.robot = model if isinstance(model, Robot) else Robot(model)
+        m = self.model = self.robot.model
         if site is not None and body is not None:
             raise ChainError("give an end-effector site or a body, not both")
         if body is not None:
             bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body)
             if bid < 0:
-                raise NameNotFoundError("body", body, _names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody))
+                raise NameNotFoundError("body", body, names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody))
             self.ee_kind, self.ee_id, self.ee_name = "body", bid, body
             ee_body = bid
         else:
             site = DEFAULT_SITE if site is None else site
             sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
             if sid < 0:
-                raise NameNotFoundError("site", site, _names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite))
+                raise NameNotFoundError("site", site, names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite))
             self.ee_kind, self.ee_id, self.ee_name = "site", sid, site
             ee_body = int(m.site_bodyid[sid])
         path_joints = self._path_joints(ee_body)
@@ -142,83 +115,94 @@ class Chain:
             raise ChainError(f"no hinge joint moves {self.ee_kind} '{self.ee_name}'")
         ids.sort(key=lambda j: int(m.jnt_dofadr[j]))
         self.joint_ids = np.array(ids, dtype=np.int64)
-        self.joint_names = [
-            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in ids
-        ]
+        self.joint_names = [joint_name(m, j) for j in ids]
         self.qpos_adr = m.jnt_qposadr[self.joint_ids].astype(np.int64)
         self.dof_adr = m.jnt_dofadr[self.joint_ids].astype(np.int64)
-        self._read_ranges()
-        self.data = mujoco.MjData(m)
-        self.q_home = self._home()
-        self.reset()
-        self._kinematics = _snapshot(m, _KINEMATIC_FIELDS)
-        self._structure = _snapshot(m, _STRUCTURE_FIELDS)
-        self._busy = threading.Lock()
-        self.version = 0
-        """How many times :meth:`refresh` re-read the model: a cache held outside the
-        chain (a solver's own) compares it to know whether it is still current."""
-        # (6, nv) Jacobian buffer; rows 0-2 and 3-5 are C-contiguous views for mj_jacSite
-        self._jac = np.zeros((6, m.nv))
-        self._jacp, self._jacr = self._jac[:3], self._jac[3:]
+        self.key: tuple[str, int, tuple[int, ...]] = (self.ee_kind, self.ee_id, tuple(ids))
         dofs = self.dof_adr
         contiguous = bool(np.all(np.diff(dofs) == 1))
-        # chain columns: a view of the buffer when the dofs are contiguous, else a copy
-        self._dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
-        self._J = self._jac[:, self._dof_slice] if contiguous else np.zeros((6, self.n))
-        self._derived: dict[Hashable, Any] = {}
+        # chain columns: a view of the robot's buffer when the dofs are contiguous
+        self.dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
+        """The chain's columns of the robot's Jacobian as a slice, ``None`` when its
+        dofs do not follow each other."""
+        # a view of the robot's buffer (never reallocated), so made once
+        self._columns = None if self.dof_slice is None else self.robot.jac[:, self.dof_slice]
         self._base_qpos = self._qpos_off_chain()
+        self._limits_version = -1
+        self._read_ranges()
 
+    # ----------------------------------------------------------------- the live model
     def _read_ranges(self) -> None:
         m = self.model
         limited = m.jnt_limited[self.joint_ids].astype(bool)
         rng = m.jnt_range[self.joint_ids]
-        self.lower = np.where(limited, rng[:, 0], -np.inf)
-        self.upper = np.where(limited, rng[:, 1], np.inf)
+        self._lower = np.where(limited, rng[:, 0], -np.inf)
+        self._upper = np.where(limited, rng[:, 1], np.inf)
+        home = home_qpos(m)[self.qpos_adr]
+        self._q_home = np.minimum(np.maximum(home, self._lower), self._upper)
+        self._limits_version = self.robot.version
+
+    @property
+    def lower(self) -> NDArray[np.float64]:
+        """Lower joint limits ``(n,)`` [rad] (``-inf`` for an unlimited joint), read from
+        the live model (followed after :meth:`sync`)."""
+        if self._limits_version != self.robot.version:
+            self._read_ranges()
+        return self._lower
+
+    @property
+    def upper(self) -> NDArray[np.float64]:
+        """Upper joint limits ``(n,)`` [rad] (``inf`` for an unlimited joint)."""
+        if self._limits_version != self.robot.version:
+            self._read_ranges()
+        return self._upper
+
+    @property
+    def q_home(self) -> NDArray[np.float64]:
+        """Chain joints at the ``home`` keyframe if there is one, else ``qpos0``, inside
+        the ranges ``(n,)`` [rad]."""
+        if self._limits_version != self.robot.version:
+            self._read_ranges()
+        return self._q_home
+
+    @property
+    def data(self) -> mujoco.MjData:
+        """The robot's scratch ``MjData``, shared with its other chains."""
+        return self.robot.data
+
+    @property
+    def version(self) -> int:
+        """The robot's :attr:`~humanoid_ik.core.robot.Robot.version`: a cache held
+        outside compares it to know whether it is still current."""
+        return self.robot.version
 
     def sync(self) -> bool:
-        """Follow changes made to the live ``MjModel`` since the chain last looked (joint
-        ranges, axes, body and site placements, ``qpos0``): re-read the ranges and the home
-        pose and drop every :meth:`derived` cache. Every solve calls it; cheap when nothing
-        changed (a byte comparison of those arrays).
+        """Follow changes made to the live ``MjModel`` (see :meth:`Robot.sync`): the
+        ranges and the home pose are re-read, every :meth:`derived` cache dropped.
 
         Returns:
             True when the model had changed.
         """
-        now = _snapshot(self.model, _KINEMATIC_FIELDS)
-        if now == self._kinematics:
-            return False
-        self.refresh(now)
-        return True
+        return self.robot.sync()
 
-    def refresh(self, snapshot: tuple[bytes, ...] | None = None) -> None:
-        """Re-read everything the chain took from the model and drop the caches derived
-        from it (see :meth:`sync`, which calls this when the model changed)."""
-        self._kinematics = snapshot or _snapshot(self.model, _KINEMATIC_FIELDS)
-        self._read_ranges()
-        self._derived.clear()
-        self.version += 1
-        q = self.q
-        self.q_home = self._home()
-        self.set_q(self.clip(q))
+    def refresh(self) -> None:
+        """Re-read everything taken from the model and drop the caches derived from it."""
+        self.robot.refresh()
 
     def claim(self) -> None:
-        """Mark the chain busy for one solve (:meth:`release` ends it).
+        """Mark the chain's robot busy for one solve (:meth:`release` ends it).
 
-        A chain holds scratch data, so one chain serves one thread at a time: give each
-        thread its own ``Chain`` (cheap), or guard a shared one with a lock.
+        A robot holds one scratch state, so it serves one thread at a time: give each
+        thread its own robot (or ``Chain``, which makes one), or guard a shared one.
 
         Raises:
-            ChainError: another thread is solving on this chain right now.
+            ChainError: another thread is solving on this robot right now.
         """
-        if not self._busy.acquire(blocking=False):
-            raise ChainError(
-                f"{self!r} is in use by another thread; give each thread its own Chain "
-                "or guard a shared one with a lock"
-            )
+        self.robot.claim()
 
     def release(self) -> None:
         """End the solve that :meth:`claim` began."""
-        self._busy.release()
+        self.robot.release()
 
     def _qpos_off_chain(self) -> slice | NDArray[np.int64] | None:
         """``qpos`` addresses of the path's joints outside the chain (a floating base, a
@@ -275,16 +259,15 @@ class Chain:
 
     def derived(self, key: Hashable, build: Callable[[Chain], T]) -> T:
         """A value derived from the chain's fixed kinematics, built by ``build(self)`` on
-        the first call for ``key`` and kept for the chain's life.
+        the first call for ``key`` and kept in the robot's workspace (shared by equal
+        chains of that robot) until the model changes.
 
         The rule: what is computed from the chain's joints and the model's kinematics alone
         (a solver's seed poses, its geometry) stays valid until the model changes, and
         :meth:`sync` (run by every solve) drops it then; ``build`` must leave the scratch
         data's joint values as it found them.
         """
-        if key not in self._derived:
-            self._derived[key] = build(self)
-        return self._derived[key]
+        return self.robot.workspace((self.key, key), lambda: build(self))
 
     # ----------------------------------------------------------------- structure
     def _path_joints(self, body: int) -> list[int]:
@@ -299,7 +282,7 @@ class Chain:
         return out
 
     def _joint_desc(self, j: int) -> str:
-        name = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+        name = joint_name(self.model, j)
         return f"'{name}' ({_JOINT_TYPE_NAMES[int(self.model.jnt_type[j])]})"
 
     def _default_joints(self, path: list[int]) -> list[int]:
@@ -317,13 +300,13 @@ class Chain:
             ids.append(j)
         return ids
 
-    def _named_joints(self, names: Sequence[str], path: list[int]) -> list[int]:
+    def _named_joints(self, wanted: Sequence[str], path: list[int]) -> list[int]:
         m = self.model
-        if isinstance(names, str):
-            names = [names]
+        if isinstance(wanted, str):
+            wanted = [wanted]
         ids = []
-        all_names = _names(m, mujoco.mjtObj.mjOBJ_JOINT, m.njnt)
-        for name in names:
+        all_names = names(m, mujoco.mjtObj.mjOBJ_JOINT, m.njnt)
+        for name in wanted:
             j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
             if j < 0:
                 raise NameNotFoundError("joint", name, all_names)
@@ -342,15 +325,11 @@ class Chain:
             ids.append(j)
         return ids
 
-    def _home(self) -> NDArray[np.float64]:
-        """Chain joints at the ``home`` keyframe if there is one, else ``qpos0``, inside ranges."""
-        return self.clip(home_qpos(self.model)[self.qpos_adr])
-
     def reset(self) -> None:
-        """Scratch data to the home pose: the ``home`` key (or ``qpos0``) for every joint."""
-        reset_to_home(self.model, self.data)
-        self.data.qpos[self.qpos_adr] = self.q_home
-        mujoco.mj_kinematics(self.model, self.data)
+        """The robot's scratch data to the home pose (:meth:`Robot.reset`), the chain's
+        joints at :attr:`q_home`."""
+        self.robot.reset()
+        self.set_q(self.q_home)
 
     # ----------------------------------------------------------------- properties
     @property
@@ -406,60 +385,55 @@ class Chain:
         [m/rad], rows 3-5 angular velocity, both in the world frame (``mj_jacSite``)."""
         if q is not None:
             self.set_q(self.check_q(q))
-        return self._jacobian().copy()
+        return self.current_jacobian().copy()
 
-    def _jacobian(self) -> NDArray[np.float64]:
-        """Fills the reused ``(6, n)`` buffer; ``mj_kinematics`` must be current."""
-        m, d = self.model, self.data
+    def current_jacobian(self) -> NDArray[np.float64]:
+        """The Jacobian ``(6, n)`` at the scratch data's current kinematics
+        (``mj_kinematics`` must be current), in a buffer the robot reuses: a view of
+        :attr:`Robot.jac` when the chain's dofs follow each other, else a gathered copy.
+        Valid until the next call; the caller may overwrite it."""
+        r = self.robot
+        m, d = self.model, r.data
         mujoco.mj_comPos(m, d)
         if self.ee_kind == "site":
-            mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.ee_id)
+            mujoco.mj_jacSite(m, d, r.jacp, r.jacr, self.ee_id)
         else:
-            mujoco.mj_jacBody(m, d, self._jacp, self._jacr, self.ee_id)
-        if self._dof_slice is None:
-            np.take(self._jac, self.dof_adr, axis=1, out=self._J)
-        return self._J
+            mujoco.mj_jacBody(m, d, r.jacp, r.jacr, self.ee_id)
+        if self._columns is not None:
+            return self._columns
+        J = r.buffer(("chain_jacobian", self.key), (6, self.n))
+        np.take(r.jac, self.dof_adr, axis=1, out=J)
+        return J
 
     def joint_axes(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """World anchors ``(n, 3)`` and unit axes ``(n, 3)`` of the chain's hinges."""
         return (self.data.xanchor[self.joint_ids].copy(), self.data.xaxis[self.joint_ids].copy())
 
+    def joint_axes_at(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World anchors ``(n, 3)`` and unit axes ``(n, 3)`` of the chain's hinges with the
+        chain at ``q`` (the scratch data's joints are put back)."""
+        keep = self.q
+        self.set_q(self.check_q(q))
+        anchors, axes = self.joint_axes()
+        self.set_q(keep)
+        return anchors, axes / np.linalg.norm(axes, axis=1, keepdims=True)
+
     def load(self, data: mujoco.MjData) -> None:
-        """Copy the caller's ``qpos`` (every joint) into the scratch data. ``data`` is only read.
+        """Copy the caller's ``qpos`` (every joint) into the robot's scratch data
+        (:meth:`Robot.load`). ``data`` is only read.
 
         Raises:
             ChainError: ``data`` belongs to another model.
         """
-        self.check_data(data)
-        self.data.qpos[:] = data.qpos
-        self.data.mocap_pos[:] = data.mocap_pos
-        self.data.mocap_quat[:] = data.mocap_quat
-        mujoco.mj_kinematics(self.model, self.data)
+        self.robot.load(data)
 
     def check_data(self, data: mujoco.MjData) -> None:
-        """Refuse an ``MjData`` made for another model: one of another size, or of a model
-        whose joints or tree differ (an ``MjData`` of a copy of the same model is fine).
+        """Refuse an ``MjData`` made for another model (:meth:`Robot.check_data`).
 
         Raises:
             ChainError: ``data`` is not an ``MjData`` of a model like the chain's.
         """
-        if not isinstance(data, mujoco.MjData):
-            raise ChainError(f"expected a mujoco.MjData, got {type(data).__name__}")
-        other = data.model
-        if other is self.model:
-            return
-        if other.nq != self.model.nq or other.njnt != self.model.njnt:
-            raise ChainError(
-                f"MjData has nq={other.nq} and {other.njnt} joints, the chain's model has "
-                f"nq={self.model.nq} and {self.model.njnt}: it belongs to another model"
-            )
-        if _snapshot(other, _STRUCTURE_FIELDS) != self._structure or _names(
-            other, mujoco.mjtObj.mjOBJ_JOINT, other.njnt
-        ) != _names(self.model, mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt):
-            raise ChainError(
-                "MjData belongs to another model (its joints or bodies differ from the "
-                "chain's); make it with mujoco.MjData(chain.model)"
-            )
+        self.robot.check_data(data)
 
     def apply(self, q: ArrayLike, data: mujoco.MjData) -> None:
         """Write chain joints ``q`` into the caller's ``data`` and run ``mj_forward`` on it.
@@ -486,8 +460,11 @@ class Chain:
 
     def limit_margin(self, q: ArrayLike) -> float:
         """Smallest distance [rad] of any joint to its nearest range end (negative outside)."""
-        arr = np.asarray(q)
-        return float(np.min(np.minimum(arr - self.lower, self.upper - arr)))
+        qs = np.asarray(q, dtype=np.float64).tolist()  # a few joints: plain floats are quicker
+        return min(
+            min(x - a, b - x)
+            for x, a, b in zip(qs, self.lower.tolist(), self.upper.tolist(), strict=True)
+        )
 
     def random_q(self, rng: np.random.Generator) -> NDArray[np.float64]:
         """A uniform joint vector inside the ranges (unlimited joints in [-pi, pi])."""

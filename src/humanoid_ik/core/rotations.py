@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.errors import TargetError
 
 __all__ = [
+    "wrap_angle",
     "axis_angle_matrix",
     "rotation_between",
     "look_at",
@@ -261,7 +262,7 @@ def decompose_three_axes(
             q1 = hinge_angle_between(u1, v, w)
         R3 = R2.T @ axis_angle_matrix(u1, q1).T @ Rm
         q3 = hinge_angle_between(u3, n3, R3 @ n3)
-        out.append(np.array([_wrap(q1), _wrap(q2), _wrap(q3)]))
+        out.append(np.array([wrap_angle(q1), wrap_angle(q2), wrap_angle(q3)]))
     return out
 
 
@@ -299,7 +300,7 @@ def axes_meeting_point(
     return S
 
 
-def _wrap(a: float) -> float:
+def wrap_angle(a: float) -> float:
     """Angle wrapped to (-pi, pi]."""
     w = math.remainder(a, 2.0 * math.pi)
     return math.pi if w == -math.pi else w

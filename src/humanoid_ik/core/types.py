@@ -55,9 +55,10 @@ class Target:
         p = float_array("target position", self.position)
         if p.shape != (3,):
             raise TargetError(f"target position must have 3 values (x, y, z), got shape {p.shape}")
-        if not np.all(np.isfinite(p)):
-            raise TargetError(f"target position {p.tolist()} is not finite")
-        if np.any(np.abs(p) > MAX_COORDINATE):
+        x, y, z = p.tolist()  # one comparison per coordinate: NaN fails it too
+        if not (abs(x) <= MAX_COORDINATE and abs(y) <= MAX_COORDINATE and abs(z) <= MAX_COORDINATE):
+            if not np.all(np.isfinite(p)):
+                raise TargetError(f"target position {p.tolist()} is not finite")
             raise TargetError(
                 f"target position {p.tolist()} lies beyond {MAX_COORDINATE:g} m; "
                 "expected coordinates in metres"

@@ -26,6 +26,7 @@ from humanoid_ik.core.models import (
     model_spec,
     needs_stage,
 )
+from humanoid_ik.core.robot import joint_name
 from humanoid_ik.errors import HumanoidIKError
 from humanoid_ik.run.runner import chain_reach
 from humanoid_ik.solvers import SOLVERS
@@ -187,7 +188,7 @@ def _joint_info(model: mujoco.MjModel, j: int) -> JointInfo:
     inside = rng is None or q0 is None or lo - 1e-9 <= q0 <= hi + 1e-9
     ax = model.jnt_axis[j]
     return JointInfo(
-        name=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}",
+        name=joint_name(model, j),
         type=jtype,
         axis=(float(ax[0]), float(ax[1]), float(ax[2])),
         range_rad=rng,
@@ -245,7 +246,7 @@ def _effector(model: mujoco.MjModel, kind: str, name: str) -> tuple[EffectorInfo
     warnings = []
     for j in chain.path_joint_ids.tolist():
         if int(model.jnt_type[j]) == mujoco.mjtJoint.mjJNT_FREE:
-            jname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+            jname = joint_name(model, j)
             warnings.append(
                 f"free joint '{jname}' on the path of {kind} '{name}': the chain stops "
                 "there; solvers keep the floating base where it is"

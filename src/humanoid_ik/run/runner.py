@@ -4,11 +4,14 @@ Per frame ``i`` at ``t = i / fps``:
 
 1. every target moves to ``motion.position(t)`` (and ``orientation.quat_at(t)``);
 2. every effector's solver solves from the joint values of the previous frame (warm
-   start; the first frame starts at the ``home`` keyframe);
-3. the solutions are written into the scene's ``MjData.qpos`` and ``mj_forward`` runs once;
-4. metrics are read from that ``MjData`` (not from the solver): target and achieved
-   position, position and orientation error, iterations, solve time, the nearest
-   joint-limit margin, and whether the target is within reach.
+   start; the first frame starts at the ``home`` keyframe), in the one robot state all
+   the scene's chains share (:class:`~humanoid_ik.core.robot.Robot`): nothing is
+   copied between chains;
+3. the solutions are in the robot's ``MjData.qpos`` and ``mj_forward`` runs once;
+4. metrics are read from that ``MjData`` and the results: target and achieved
+   position, position and orientation error (a result's errors are measured once, by
+   MuJoCo FK at the pose it returns, which is the pose the frame shows), iterations,
+   solve time, the nearest joint-limit margin, and whether the target is within reach.
 
 Solvers that move several effectors at once (the hook): a solver with
 ``solves_effectors`` set receives every effector that uses it in one
@@ -18,12 +21,13 @@ once per effector through ``Solver.solve(chain, target, q0)``.
 
 Outputs are collected beside the loop, not inside it: :meth:`SceneRunner.run` is the one
 frame loop of the package, and hands every frame to its *sinks* (:class:`FrameSink`), the
-run's :class:`~humanoid_ik.run.metrics.Metrics` last; the renderer, the video, the
+run's :class:`~humanoid_ik.run.recording.Recording` last; the renderer, the video, the
 stills and the GIF of :mod:`humanoid_ik.outputs.render` are sinks too.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Callable, Sequence
@@ -35,12 +39,11 @@ from numpy.typing import NDArray
 
 from humanoid_ik.config.scene import EffectorSpec, Scene, SolverSpec, check_scene, scene_model
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.measures import gaze_error, on_target, orientation_error
-from humanoid_ik.core.models import reset_to_home
+from humanoid_ik.core.measures import gaze_error, on_target
 from humanoid_ik.core.types import EffectorGoal, IKResult, Target
 from humanoid_ik.errors import HumanoidIKError, SceneError
-from humanoid_ik.run.metrics import EffectorSample, FrameRecord, Metrics
-from humanoid_ik.run.trajectory import TrajectoryRecorder
+from humanoid_ik.run.metrics import EffectorSample, FrameRecord
+from humanoid_ik.run.recording import Recording
 
 __all__ = [
     "FrameSink",
@@ -126,8 +129,10 @@ class SceneRunner:
         SceneError: the scene does not fit the model (see :func:`check_scene`).
 
     Attributes:
-        model, data: MuJoCo's model and the data the frames are written to.
-        chains: one chain per effector.
+        robot: the one robot state of the scene's chains.
+        model, data: its model and its ``MjData``, where the solvers work and the frames
+            are written.
+        chains: one chain per effector, all on ``robot``.
     """
 
     def __init__(self, scene: Scene, model: mujoco.MjModel | None = None):
@@ -139,11 +144,11 @@ class SceneRunner:
                 raise SceneError(scene.source, "model", str(exc)) from None
         self.model = model
         self.chains = check_scene(scene, model)
-        self.data = mujoco.MjData(model)
+        self.robot = self.chains[0].robot
+        self.data = self.robot.data
         self.specs: list[SolverSpec] = [scene.solver_for(e) for e in scene.effectors]
         self.targets = [scene.target(e.target) for e in scene.effectors]
-        self._site_ids = [c.ee_id for c in self.chains]
-        self._reach = [chain_reach(c) for c in self.chains]
+        self._reach = [(b.tolist(), r) for b, r in map(chain_reach, self.chains)]
         # one solver object per distinct spec; effectors sharing a multi-effector solver
         # are solved together
         self._groups: list[tuple[Any, list[int]]] = []
@@ -194,17 +199,15 @@ class SceneRunner:
         """Each effector's solver, as ``name`` or ``name(options)``."""
         return [s.label() for s in self.specs]
 
-    def recorder(self) -> TrajectoryRecorder:
-        """A frame sink that records this runner's :class:`Trajectory` (hand it to
-        :meth:`run`, then call its ``trajectory()``)."""
-        return TrajectoryRecorder(
-            self.scene, self.model, self.chains, self.targets, self.solver_labels()
-        )
+    def recording(self) -> Recording:
+        """An empty :class:`~humanoid_ik.run.recording.Recording` of this runner's scene:
+        the sink :meth:`run` fills (a frame loop of one's own may fill it too)."""
+        return Recording(self.scene, self.solver_labels(), self.model, self.chains, self.targets)
 
     def reset(self) -> None:
         """Back to the home keyframe (warm starts forgotten)."""
         m, d = self.model, self.data
-        reset_to_home(m, d)
+        self.robot.reset()
         for c in self.chains:
             d.qpos[c.qpos_adr] = c.q_home
         mujoco.mj_forward(m, d)
@@ -230,8 +233,6 @@ class SceneRunner:
         results: list[IKResult | None] = [None] * len(self.chains)
         times = [0.0] * len(self.chains)
         for solver, members in self._groups:
-            for i in members:
-                self.chains[i].load(d)
             if solver.solves_effectors:  # several effectors at once
                 goals = self._goals(members, targets)
                 t0 = time.perf_counter()
@@ -252,9 +253,8 @@ class SceneRunner:
                 results[i] = res
         for i, res in enumerate(results):
             assert res is not None
-            q = self.chains[i].clip(res.q)
-            self.q[i] = q
-            d.qpos[self.chains[i].qpos_adr] = q
+            self.q[i] = res.q
+            d.qpos[self.chains[i].qpos_adr] = res.q
         mujoco.mj_forward(m, d)
         samples = tuple(
             self._measure(i, targets[i], results[i], times[i])  # type: ignore[arg-type]
@@ -263,39 +263,40 @@ class SceneRunner:
         return FrameRecord(index, t, samples)
 
     def _measure(self, i: int, target: Target, res: IKResult, dt: float) -> EffectorSample:
+        """Effector ``i``'s sample of this frame. A reaching effector's errors are its
+        result's, measured once by MuJoCo FK at the pose the frame shows; a gaze's are
+        the gaze measure's (:func:`~humanoid_ik.core.measures.gaze_error`)."""
         eff: EffectorSpec = self.scene.effectors[i]
-        d = self.data
-        sid = self._site_ids[i]  # a site's id, or a body's for a body end effector
-        site = self.chains[i].ee_kind == "site"
-        p = (d.site_xpos if site else d.xpos)[sid].copy()
-        R = (d.site_xmat if site else d.xmat)[sid].reshape(3, 3)
+        chain = self.chains[i]
+        p = chain.position.copy()
         pd = target.position
         orient: float | None = None
         if eff.task == "look_at":
             axis = self._gaze_axes[i]
+            R = chain.rotation
             err, orient = gaze_error(p, R, axis, pd)
             achieved = p + float(np.linalg.norm(pd - p)) * (R @ axis)
             on = on_target(err)
             reachable = bool(res.converged)
         else:
             achieved = p
-            err = float(np.linalg.norm(pd - p))
+            err = res.position_error
             if target.quat is not None:
-                orient = orientation_error(R, target.quat)
+                orient = res.orientation_error
             on = on_target(err, orient)
             base, reach = self._reach[i]
-            reachable = float(np.linalg.norm(pd - base)) <= reach
+            reachable = math.dist(pd.tolist(), base) <= reach
         return EffectorSample(
             effector=eff.name,
             target_name=eff.target,
             task=eff.task,
-            target=np.array(pd),
+            target=pd.copy(),
             achieved=achieved,
             position_error=err,
             orientation_error=orient,
             iterations=int(res.iterations),
             solve_time=dt,
-            limit_margin=self.chains[i].limit_margin(self.q[i]),
+            limit_margin=chain.limit_margin(self.q[i]),
             reachable=reachable,
             on_target=bool(on),
             status=res.status,
@@ -306,13 +307,13 @@ class SceneRunner:
         frames: int | None = None,
         on_frame: Callable[[FrameRecord], None] | None = None,
         sinks: Sequence[FrameSink] = (),
-    ) -> Metrics:
+    ) -> Recording:
         """Run ``frames`` frames (default: the whole scene) from the home pose: the frame
         loop.
 
         Per frame: :meth:`step`, then every sink in order gets the record and
-        ``self.data``, then the returned metrics (also a sink) and the frame's loop time,
-        then ``on_frame``.
+        ``self.data``, then the returned recording (also a sink) and the frame's loop
+        time, then ``on_frame``.
 
         Args:
             frames: how many frames.
@@ -320,23 +321,23 @@ class SceneRunner:
             sinks: the outputs that take each frame (e.g. the renderer).
 
         Returns:
-            The metrics of every frame run, with ``frame_times``: the wall time [s] of each
+            The recording of every frame run, with ``frame_times``: the wall time [s] of each
             frame's step and sinks. Ctrl-C (``KeyboardInterrupt``) stops the run early: the
             frames so far are returned with ``interrupted`` set. Any other exception
             propagates (the sinks are left to their owner to abort).
         """
         n = self.n_frames if frames is None else frames
         self.reset()
-        metrics = Metrics(self.scene, self.solver_labels())
-        metrics.frame_times, metrics.interrupted = frame_loop(
-            n, self.step, self.data, (*sinks, metrics), on_frame
+        recording = self.recording()
+        recording.frame_times, recording.interrupted = frame_loop(
+            n, self.step, self.data, (*sinks, recording), on_frame
         )
-        return metrics
+        return recording
 
 
-def run_scene(scene: Scene | str | os.PathLike, frames: int | None = None) -> Metrics:
+def run_scene(scene: Scene | str | os.PathLike, frames: int | None = None) -> Recording:
     """Run a scene (a :class:`Scene`, a scene file or a bundled scene's name) without
-    rendering and return its metrics."""
+    rendering and return its recording."""
     from humanoid_ik.config.scene import load_scene
 
     sc = scene if isinstance(scene, Scene) else load_scene(scene)

@@ -7,6 +7,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Iterator, Sequence
 from typing import Any, ClassVar
 
+import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -16,7 +17,14 @@ from humanoid_ik.core.types import EffectorGoal, IKResult, Status, Target
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.options import SolverOptions
 
-__all__ = ["Solver"]
+__all__ = ["Solver", "error_buffers"]
+
+
+def error_buffers(chain: Chain) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The error vector ``(6,)`` and quaternion scratch ``(2, 4)`` that
+    :func:`~humanoid_ik.core.measures.pose_error` writes, from the chain's robot state."""
+    r = chain.robot
+    return r.buffer("pose_error", (6,)), r.buffer("pose_error_quats", (2, 4))
 
 
 class Solver(ABC):
@@ -32,9 +40,12 @@ class Solver(ABC):
     hands it every effector that uses it, in one call per frame. Any other solver is
     called once per effector through :meth:`solve`.
 
-    Caches: what a solver derives from a chain alone (seed poses, manipulability at
-    home, closed-form geometry) is kept with the chain (:meth:`Chain.derived`) and built
-    by :meth:`prepare`, which timing loops call before they start the clock.
+    No state: a solver object holds its options and nothing a solve changes, so one
+    object may serve several threads that each have their own robot state. What a
+    solver derives from a chain alone (seed poses, manipulability at home, closed-form
+    geometry) and the buffers a solve writes are kept in the robot's workspace
+    (:meth:`Chain.derived`, :meth:`Robot.buffer <humanoid_ik.core.robot.Robot.buffer>`),
+    built by :meth:`prepare`, which timing loops call before they start the clock.
     """
 
     name: ClassVar[str]
@@ -49,7 +60,6 @@ class Solver(ABC):
 
     def __init__(self, **options: Any):
         self.options = self.Options.parse(self.name, options)
-        self._buffers = (np.empty(6), np.empty((2, 4)))  # error vector, quaternion scratch
 
     def prepare(self, chain: Chain) -> None:
         """Build what the solver derives from ``chain`` alone, so a later timed solve
@@ -108,21 +118,34 @@ class Solver(ABC):
         return None
 
     def solve(
-        self, chain: Chain, target: Target | ArrayLike, q0: ArrayLike | None = None
+        self,
+        chain: Chain,
+        target: Target | ArrayLike,
+        q0: ArrayLike | None = None,
+        *,
+        data: mujoco.MjData | None = None,
     ) -> IKResult:
         """Solve from ``q0`` (default: the chain's current joint values, moved inside ranges).
 
-        Works on the chain's scratch data; leaves it at the returned pose. Follows changes
+        Works on the chain's robot state; leaves it at the returned pose. Follows changes
         to the live model first (:meth:`Chain.sync`).
+
+        Args:
+            chain, target, q0: the chain, its target and the start.
+            data: the caller's ``MjData``, copied into the robot state once the robot is
+                claimed (only read).
 
         Raises:
             TargetError: a bad target or ``q0``.
             SolverError: the solver does not apply to this chain or task.
-            ChainError: another thread is solving on the same chain.
+            ChainError: another thread is solving on the same robot, or ``data``
+                belongs to another model.
         """
         tgt = Target.of(target)
         chain.claim()
         try:
+            if data is not None:
+                chain.load(data)
             chain.sync()
             reason = self.applicable(chain, tgt.is_pose)
             if reason is not None:
@@ -148,7 +171,7 @@ class Solver(ABC):
         """Measure ``q`` with MuJoCo FK and wrap it; status from the tolerances unless given."""
         chain.set_q(q)
         ep, er = pose_error(
-            chain.position, chain.rotation, target.position, target.quat, *self._buffers
+            chain.position, chain.rotation, target.position, target.quat, *error_buffers(chain)
         )
         o = self.options
         ok = ep < o.tol and (target.quat is None or er < o.rot_tol)

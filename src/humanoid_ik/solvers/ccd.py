@@ -22,7 +22,8 @@ from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.rotations import hinge_angle_between
 from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.errors import SolverError, choices
-from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.base import Solver, error_buffers
+from humanoid_ik.solvers.iterate import Best, Stall, pose_cost
 from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["CCD", "CCDOptions", "CCDStep", "into_range", "step"]
@@ -236,7 +237,7 @@ class CCD(Solver):
     options: CCDOptions
 
     def _solve(self, chain: Chain, target: Target, q0: np.ndarray) -> IKResult:
-        best_q, best_err, best_start = q0.copy(), math.inf, 0
+        best = Best(q0)
         first_err = math.inf
         sweeps = 0
         for k, q in enumerate(self.starts(chain, q0, target)):
@@ -244,15 +245,14 @@ class CCD(Solver):
             sweeps += n
             if k == 0:
                 first_err = err
-            if err < best_err:
-                best_q, best_err, best_start = q.copy(), err, k
+            best.offer(q, pose_cost(err), k)
             if done:
                 break
-        note = "" if best_start == 0 else self._restart_note(best_start, first_err)
-        if best_err < self.options.tol:
-            return self._result(chain, target, best_q, sweeps, message=note)
+        note = "" if best.start == 0 else self._restart_note(best.start, first_err)
+        if best.cost < self.options.tol:
+            return self._result(chain, target, best.q, sweeps, message=note)
         message = self.gave_up() + (f"; {note}" if note else "")
-        return self._result(chain, target, best_q, sweeps, message=message)
+        return self._result(chain, target, best.q, sweeps, message=message)
 
     def _restart_note(self, k: int, first_err: float) -> str:
         """The message of a result whose pose came from restart ``k``."""
@@ -268,8 +268,7 @@ class CCD(Solver):
         chain.set_q(q)
         c, tol = self.options.nudge, self.options.tol
         last = self.options.max_iterations
-        window = max(2, self.options.stall_window)
-        history = np.full(window, math.inf)
+        stalled = Stall(self.options.stall_window)
         err = math.inf
         before = q.copy()
         stride = 1.0
@@ -285,15 +284,13 @@ class CCD(Solver):
                 err, stride = self._pattern_move(chain, pd, q, q - before, err, stride)
                 if err < tol:
                     return True, err, sweep
-            if sweep > window and err > 0.99 * history[sweep % window]:
+            if stalled(sweep - 1, err):  # the sweeps count from 1
                 return False, err, sweep
-            history[sweep % window] = err
         return False, err, last
 
     def _error(self, chain: Chain, pd: np.ndarray) -> float:
         """The position error [m] at the current kinematics (:func:`pose_error`)."""
-        e, quat_buf = self._buffers
-        return pose_error(chain.position, chain.rotation, pd, None, e, quat_buf)[0]
+        return pose_error(chain.position, chain.rotation, pd, None, *error_buffers(chain))[0]
 
     def _pattern_move(
         self, chain: Chain, pd: np.ndarray, q: np.ndarray, dq: np.ndarray, err: float, stride: float

@@ -92,9 +92,7 @@ def solve(
             f"solvers: {', '.join(sorted(SOLVERS))}"
         )
     s = make_solver(solver, **options) if isinstance(solver, str) else solver
-    if data is not None:
-        chain.load(data)
-    result = s.solve(chain, tgt, q0)
+    result = s.solve(chain, tgt, q0, data=data)
     if apply and data is not None and result.converged:
         chain.apply(result.q, data)
     return result

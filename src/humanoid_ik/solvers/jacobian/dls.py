@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import mujoco
 import numpy as np
@@ -33,6 +33,16 @@ class DLSOptions(JacobianOptions):
     singular_fraction: float = 0.1
 
 
+class _Work(NamedTuple):
+    """One solve's manipulability threshold ``w0`` and the ``(rows, rows)`` system,
+    factor and ``(rows,)`` solution buffers."""
+
+    w0: float
+    A: NDArray[np.float64]
+    L: NDArray[np.float64]
+    y: NDArray[np.float64]
+
+
 class DLS(JacobianSolver):
     """``dq = J' (J J' + lambda^2 I)^-1 e``.
 
@@ -55,29 +65,29 @@ class DLS(JacobianSolver):
         for rows in (3, 6):
             _manipulability_at_home(chain, rows)
 
-    def _prepare(self, chain: Chain, rows: int) -> None:
+    def _prepare(self, chain: Chain, rows: int) -> _Work:
         w_home = _manipulability_at_home(chain, rows)
-        self._w0 = self.options.singular_fraction * w_home
-        if getattr(self, "_rows", None) != rows:
-            self._rows = rows
-            self._A = np.empty((rows, rows))
-            self._L = np.empty((rows, rows))
-            self._A_diag = self._A.reshape(-1)[:: rows + 1]  # views of the diagonals
-            self._L_diag = self._L.reshape(-1)[:: rows + 1]
-            self._y = np.empty(rows)
+        r = chain.robot
+        A = r.buffer("dls_A", (rows, rows))
+        L = r.buffer("dls_L", (rows, rows))
+        return _Work(self.options.singular_fraction * w_home, A, L, r.buffer("dls_y", (rows,)))
 
-    def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
-        A, L, y = self._A, self._L, self._y
+    def _step(
+        self, work: _Work, J: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        A, L, y, w0 = work.A, work.L, work.y, work.w0
+        rows = A.shape[0]
+        A_diag, L_diag = A.reshape(-1)[:: rows + 1], L.reshape(-1)[:: rows + 1]
         np.matmul(J, J.T, out=A)
-        self._A_diag += self.options.min_damping * self.options.min_damping
+        A_diag += self.options.min_damping * self.options.min_damping
         L[:] = A
         mujoco.mju_cholFactor(L, 1e-15)  # A = L L' (lower triangle, in place)
-        if self._w0 > 0.0:
-            w = float(np.prod(self._L_diag))  # sqrt(det A) = product of diag(L)
-            if w < self._w0:
-                s = 1.0 - w / self._w0
+        if w0 > 0.0:
+            w = float(np.prod(L_diag))  # sqrt(det A) = product of diag(L)
+            if w < w0:
+                s = 1.0 - w / w0
                 L[:] = A
-                self._L_diag += self.options.damping * self.options.damping * s * s
+                L_diag += self.options.damping * self.options.damping * s * s
                 mujoco.mju_cholFactor(L, 1e-15)
         mujoco.mju_cholSolve(y, L, e)
         return J.T @ y

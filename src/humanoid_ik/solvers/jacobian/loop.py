@@ -6,10 +6,12 @@ end and would be pushed past it) -> optional null-space bias toward ``home`` -> 
 capped at ``max_step`` -> ``q`` clipped to the joint ranges. Buffers are allocated once
 per solve and MuJoCo's arrays are read through views, so the loop allocates little.
 
-A run that stalls (less than 1 % progress in ``stall_window`` iterations) or hits
-``max_iterations`` restarts, up to ``restarts`` times, from the poses of the chain's seed
-library (:mod:`humanoid_ik.solvers.jacobian.seeds`) whose FK lies nearest the target, alternating
-with seeded random in-range poses. The best pose seen is returned. A step that is not
+A run that stalls (less than 1 % progress in ``stall_window`` iterations: the one rule
+of :mod:`humanoid_ik.solvers.iterate`) or hits ``max_iterations`` restarts, up to
+``restarts`` times, from the poses of the chain's seed library
+(:mod:`humanoid_ik.solvers.jacobian.seeds`) whose FK lies nearest the target,
+alternating with seeded random in-range poses. The best pose seen (the lowest
+:func:`~humanoid_ik.solvers.iterate.pose_cost`) is returned. A step that is not
 finite (an option so large that it overflows) ends that start like a stall.
 
 The options' bounds (:data:`OPTION_BOUNDS`) keep a solve finite in time, memory and
@@ -23,7 +25,7 @@ import math
 from abc import abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -32,7 +34,8 @@ from numpy.typing import NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.types import IKResult, Status, Target
-from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.base import Solver, error_buffers
+from humanoid_ik.solvers.iterate import Best, Stall, pose_cost
 from humanoid_ik.solvers.jacobian.seeds import restart_poses, seed_library
 from humanoid_ik.solvers.options import SolverOptions
 
@@ -89,12 +92,17 @@ class JacobianSolver(Solver):
         if self.options.restarts and self.options.library_seeds:
             seed_library(chain)
 
-    def _prepare(self, chain: Chain, rows: int) -> None:
-        """Per-solve set-up of the step rule (before the loop)."""
+    def _prepare(self, chain: Chain, rows: int) -> Any:
+        """Per-solve set-up of the step rule (before the loop): what :meth:`_step` gets
+        as ``work`` (buffers from the chain's robot state, values of this solve)."""
+        return None
 
     @abstractmethod
-    def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Joint step ``(n,)`` reducing ``e`` ``(rows,)`` given ``J`` ``(rows, n)``."""
+    def _step(
+        self, work: Any, J: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Joint step ``(n,)`` reducing ``e`` ``(rows,)`` given ``J`` ``(rows, n)`` and the
+        ``work`` of :meth:`_prepare`."""
 
     def _nullspace(self, J: NDArray[np.float64]) -> NDArray[np.float64]:
         """Projector ``(n, n)`` onto the null space of ``J``: ``I - J+ J``."""
@@ -111,61 +119,47 @@ class JacobianSolver(Solver):
         qadr, lo, hi = chain.qpos_adr, chain.lower, chain.upper
         pose = target.quat is not None
         rows = 6 if pose else 3
-        J = chain._J[:rows]
-        e, quat_buf = self._buffers
+        e, quat_buf = error_buffers(chain)
         e[:] = 0.0
         ev = e[:rows]
         tp, tq = target.position, target.quat
         site = chain.ee_kind == "site"
         xpos = d.site_xpos[chain.ee_id] if site else d.xpos[chain.ee_id]
         xmat = d.site_xmat[chain.ee_id] if site else d.xmat[chain.ee_id]
-        jacp, jacr, eid = chain._jacp, chain._jacr, chain.ee_id
-        jac_fn = mujoco.mj_jacSite if site else mujoco.mj_jacBody
-        gather = chain._dof_slice is None
         tol, rot_tol = self.options.tol, self.options.rot_tol
         max_iterations = self.options.max_iterations
         max_step, gain = self.options.max_step, self.options.nullspace_gain
-        window = max(2, self.options.stall_window)
-        kinematics, com_pos = mujoco.mj_kinematics, mujoco.mj_comPos
-        self._prepare(chain, rows)
+        kinematics, jacobian = mujoco.mj_kinematics, chain.current_jacobian
+        work = self._prepare(chain, rows)
 
-        best_q, best_cost = q0.copy(), math.inf
+        best = Best(q0)
         iterations = 0
         er_n = 0.0
         for q in self.starts(chain, q0, target):
-            history = [math.inf] * window
+            stalled = Stall(self.options.stall_window)
             d.qpos[qadr] = q
             for it in range(max_iterations + 1):
                 kinematics(m, d)
                 ep, er = pose_error(xpos, xmat, tp, tq, e, quat_buf)
                 if pose:
                     er_n = er
-                cost = ep + 0.1 * er_n
-                if cost < best_cost:
-                    best_cost = cost
-                    best_q[:] = q
+                cost = pose_cost(ep, er_n)
+                best.offer(q, cost)
                 if ep < tol and er_n < rot_tol:  # kinematics are current: no second FK
                     er_out = er_n if pose else None
                     return IKResult(
                         q, True, iterations + it, ep, er_out, Status.CONVERGED, self.name
                     )
-                slot = it % window
-                if it == self.options.max_iterations or (
-                    it >= window and cost > 0.99 * history[slot]
-                ):
+                if it == max_iterations or stalled(it, cost):
                     iterations += it
                     break
-                history[slot] = cost
-                com_pos(m, d)
-                jac_fn(m, d, jacp, jacr, eid)
-                if gather:
-                    np.take(chain._jac, chain.dof_adr, axis=1, out=chain._J)
-                dq = self._step(J, ev)
+                J = jacobian()[:rows]
+                dq = self._step(work, J, ev)
                 # joints at a range end that the step pushes outward leave the task
                 blocked = ((q <= lo) & (dq < 0.0)) | ((q >= hi) & (dq > 0.0))
                 if blocked.any():
                     J[:, blocked] = 0.0
-                    dq = self._step(J, ev)
+                    dq = self._step(work, J, ev)
                     dq[blocked] = 0.0
                 if gain > 0.0:
                     dq += self._nullspace(J) @ (gain * (chain.q_home - q))
@@ -178,10 +172,4 @@ class JacobianSolver(Solver):
                 q += dq
                 np.clip(q, lo, hi, out=q)
                 d.qpos[qadr] = q
-        return self._result(
-            chain,
-            target,
-            best_q,
-            iterations,
-            message=self.gave_up(),
-        )
+        return self._result(chain, target, best.q, iterations, message=self.gave_up())

@@ -34,5 +34,7 @@ class PseudoInverse(JacobianSolver):
     Options: ClassVar[type[SolverOptions]] = PseudoInverseOptions
     options: PseudoInverseOptions
 
-    def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _step(
+        self, work: None, J: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         return np.linalg.pinv(J, rcond=self.options.rcond) @ e

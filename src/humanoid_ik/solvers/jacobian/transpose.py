@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,6 +29,14 @@ class TransposeOptions(JacobianOptions):
     orientation_weight: float = 0.3
 
 
+class _Work(NamedTuple):
+    """One solve's row weights ``(rows,)`` and weighted ``J``, ``e`` buffers."""
+
+    w: NDArray[np.float64]
+    Jw: NDArray[np.float64]
+    ew: NDArray[np.float64]
+
+
 class JacobianTranspose(JacobianSolver):
     """``dq = alpha J' e`` with ``alpha = <e, J J' e> / <J J' e, J J' e>`` (Buss).
 
@@ -45,15 +53,20 @@ class JacobianTranspose(JacobianSolver):
     Options: ClassVar[type[SolverOptions]] = TransposeOptions
     options: TransposeOptions
 
-    def _prepare(self, chain: Chain, rows: int) -> None:
-        self._w = np.ones(rows)
-        self._w[3:] = self.options.orientation_weight
-        self._Jw = np.empty((rows, chain.n))
-        self._ew = np.empty(rows)
+    def _prepare(self, chain: Chain, rows: int) -> _Work:
+        r = chain.robot
+        w = r.buffer("transpose_w", (rows,))
+        w[:3] = 1.0
+        w[3:] = self.options.orientation_weight
+        return _Work(
+            w, r.buffer("transpose_Jw", (rows, chain.n)), r.buffer("transpose_ew", (rows,))
+        )
 
-    def _step(self, J: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
-        Jw = np.multiply(J, self._w[:, None], out=self._Jw)
-        ew = np.multiply(e, self._w, out=self._ew)
+    def _step(
+        self, work: _Work, J: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        Jw = np.multiply(J, work.w[:, None], out=work.Jw)
+        ew = np.multiply(e, work.w, out=work.ew)
         g = Jw.T @ ew
         Jg = Jw @ g
         den = float(Jg @ Jg)

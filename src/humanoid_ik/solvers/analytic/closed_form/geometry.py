@@ -32,6 +32,7 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
     dot,
     sub,
     unit,
+    vec,
 )
 
 __all__ = [
@@ -47,10 +48,6 @@ __all__ = [
     "arm_context",
     "arm_geometry",
 ]
-
-
-def _tup(v: NDArray[np.float64]) -> Vec:
-    return float(v[0]), float(v[1]), float(v[2])
 
 
 class ArmGeometry(NamedTuple):
@@ -79,15 +76,6 @@ class ArmGeometry(NamedTuple):
 
 
 # ------------------------------------------------------------------------------ structure
-def _zero_axes(chain: Chain) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """World anchors ``(7, 3)`` and unit axes ``(7, 3)`` of the hinges, chain joints at zero."""
-    q_keep = chain.q
-    chain.set_q(np.zeros(chain.n))
-    anchors, axes = chain.joint_axes()
-    chain.set_q(q_keep)
-    return anchors, axes / np.linalg.norm(axes, axis=1, keepdims=True)
-
-
 def structure_problem(chain: Chain) -> str | None:
     """Why the chain is not a spherical shoulder + elbow + spherical wrist, or ``None``.
 
@@ -100,7 +88,7 @@ def structure_problem(chain: Chain) -> str | None:
             f"closed_form needs 7 hinges (3 shoulder, elbow, 3 wrist); the chain has "
             f"{chain.n} joint(s)"
         )
-    anchors, axes = _zero_axes(chain)
+    anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
     S = axes_meeting_point(anchors[:3], axes[:3])
     if S is None:
         return "closed_form needs the first three hinge axes to meet at one point (a shoulder)"
@@ -120,7 +108,7 @@ def structure_problem(chain: Chain) -> str | None:
 def read_geometry(chain: Chain) -> ArmGeometry:
     """The chain's :class:`ArmGeometry` from MuJoCo (the chain must pass
     :func:`structure_problem`); the scratch data's joints are left as they were."""
-    anchors, axes = _zero_axes(chain)
+    anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
     q_keep = chain.q
     chain.set_q(np.zeros(chain.n))
     p0, R0 = chain.position.copy(), chain.rotation.copy()
@@ -169,7 +157,7 @@ class Triple:
 
     def __init__(self, axes: NDArray[np.float64], lower: NDArray, upper: NDArray):
         u1, u2, u3 = (a / np.linalg.norm(a) for a in axes)
-        self.u1, self.u2, self.u3 = _tup(u1), _tup(u2), _tup(u3)
+        self.u1, self.u2, self.u3 = vec(u1), vec(u2), vec(u3)
         d12, d23, d13 = float(u1 @ u2), float(u2 @ u3), float(u1 @ u3)
         A, B = d13 - d12 * d23, float(u1 @ np.cross(u2, u3))
         self.K = math.hypot(A, B)
@@ -180,7 +168,7 @@ class Triple:
         e1 = (u2 - d12 * u1) / np.linalg.norm(u2 - d12 * u1)
         f1 = (u2 - d23 * u3) / np.linalg.norm(u2 - d23 * u3)
         e2, f2 = np.cross(u1, e1), np.cross(u3, f1)
-        self.e1, self.e2, self.f1, self.f2 = _tup(e1), _tup(e2), _tup(f1), _tup(f2)
+        self.e1, self.e2, self.f1, self.f2 = vec(e1), vec(e2), vec(f1), vec(f2)
         self.y_rows = (*self.e1, *self.e2, *self.u1)
         """``e1, e2, u1``: the rows ``y`` is read with."""
         self.z_rows = (*self.u3, *self.f1, *self.f2)
@@ -318,16 +306,16 @@ class ArmContext:
         self.lower, self.upper = lower.copy(), upper.copy()
         self.sh = Triple(geo.shoulder_axes, lower[:3], upper[:3])
         self.wr = Triple(geo.wrist_axes, lower[4:], upper[4:])
-        self.S, self.E, self.ue = _tup(geo.shoulder), _tup(geo.elbow), _tup(geo.elbow_axis)
-        self.W0, self.down = _tup(geo.wrist), _tup(geo.down)
-        self.e_rest = _tup(geo.elbow - geo.shoulder)
+        self.S, self.E, self.ue = vec(geo.shoulder), vec(geo.elbow), vec(geo.elbow_axis)
+        self.W0, self.down = vec(geo.wrist), vec(geo.down)
+        self.e_rest = vec(geo.elbow - geo.shoulder)
         """``E - S``: the elbow seen from the shoulder at zero."""
-        self.hand = _tup(geo.hand_offset)
+        self.hand = vec(geo.hand_offset)
         """``d``: the end effector minus the wrist point, in the end-effector frame."""
-        self.hand_rest = _tup(geo.p_ee0 - geo.wrist)
+        self.hand_rest = vec(geo.p_ee0 - geo.wrist)
         """The end effector minus the wrist point at zero, in the world frame."""
-        self.shoulder_axes = tuple(_tup(a) for a in geo.shoulder_axes)
-        self.wrist_axes = tuple(_tup(a) for a in geo.wrist_axes)
+        self.shoulder_axes = tuple(vec(a) for a in geo.shoulder_axes)
+        self.wrist_axes = tuple(vec(a) for a in geo.wrist_axes)
         wr = self.wr
         self.wr_hand = tuple(float(x) for v in (wr.u3, wr.f1, wr.f2) for x in geo.R_ee0.T @ v)
         """``R_ee0' u3, R_ee0' f1, R_ee0' f2`` of the wrist: its reading vectors in the

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "vec",
     "TWO_PI",
     "RANGE_TOL",
     "Real",
@@ -106,6 +107,11 @@ ARRAYS = Backend(
     False, np.sqrt, np.arctan2, np.arccos, np.where, np.any, np.maximum, np.clip, np.round
 )
 """The backend of a batch."""
+
+
+def vec(v: Any) -> Vec:
+    """A ``(3,)`` array (or any three numbers) as a tuple of floats."""
+    return float(v[0]), float(v[1]), float(v[2])
 
 
 def sub(a: Vec, b: Vec) -> Vec:

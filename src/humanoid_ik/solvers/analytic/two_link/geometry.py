@@ -27,7 +27,9 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
     Vec,
     cross,
     dot,
+    rot,
     sub,
+    vec,
 )
 
 __all__ = [
@@ -78,21 +80,7 @@ class Shell(NamedTuple):
     """Outer radius [m]: ``sqrt((l1 + l2)^2 + h^2)``."""
 
 
-def _tup(v: NDArray[np.float64]) -> Vec:
-    return float(v[0]), float(v[1]), float(v[2])
-
-
 # ------------------------------------------------------------------------------ structure
-def _zero_axes(chain: Chain) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """World anchors ``(n, 3)`` and unit axes ``(n, 3)`` of the hinges, chain joints at
-    zero (the scratch data's joints are put back)."""
-    q_keep = chain.q
-    chain.set_q(np.zeros(chain.n))
-    anchors, axes = chain.joint_axes()
-    chain.set_q(q_keep)
-    return anchors, axes / np.linalg.norm(axes, axis=1, keepdims=True)
-
-
 def _off_line(point: NDArray, anchor: NDArray, axis: NDArray) -> float:
     """Distance [m] from ``point`` to the line ``anchor + s axis`` (unit ``axis``)."""
     return float(np.linalg.norm(np.cross(point - anchor, axis)))
@@ -114,7 +102,7 @@ def read_structure(chain: Chain) -> tuple[int, str | None]:
             f"two_link needs 1, 2 or 3 shoulder hinges and an elbow hinge; the chain has "
             f"{n} joint(s)"
         )
-    anchors, axes = _zero_axes(chain)
+    anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
     for k in (3, 2):
         if n < k + 1:
             continue
@@ -198,18 +186,18 @@ class LimbContext:
     """
 
     def __init__(self, chain: Chain, k: int):
-        anchors, axes = _zero_axes(chain)
+        anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
         self.k = k
         self.kind = KINDS[k]
         S = anchors[0] if k == 1 else axes_meeting_point(anchors[:k], axes[:k])
         assert S is not None
-        self.S = _tup(S)
-        self.axes = tuple(_tup(a) for a in axes[:k])
-        self.E, self.ue = _tup(anchors[k]), _tup(axes[k])
+        self.S = vec(S)
+        self.axes = tuple(vec(a) for a in axes[:k])
+        self.E, self.ue = vec(anchors[k]), vec(axes[k])
         self.e_rest = sub(self.E, self.S)
         g = np.asarray(chain.model.opt.gravity, dtype=np.float64)
         gn = float(np.linalg.norm(g))
-        self.down = _tup(g / gn) if gn > 0 else (0.0, 0.0, -1.0)
+        self.down = vec(g / gn) if gn > 0 else (0.0, 0.0, -1.0)
         self.lower = tuple(float(x) for x in chain.lower)
         self.upper = tuple(float(x) for x in chain.upper)
         self.tri = Triple(axes[:3], chain.lower[:3], chain.upper[:3]) if k == 3 else None
@@ -230,7 +218,7 @@ class LimbContext:
         z = np.zeros(chain.n)
         z[self.k + 1 :] = riding
         chain.set_q(z)
-        got = _limb(self, _tup(chain.position))
+        got = _limb(self, vec(chain.position))
         if len(self._limbs) >= 64:
             del self._limbs[next(iter(self._limbs))]
         self._limbs[riding] = got
@@ -244,21 +232,9 @@ class LimbContext:
             return self._start[1]
         v = self.e_rest
         for j in (2, 1, 0):
-            v = _rot(self.axes[j], key[j], v)
+            v = rot(self.axes[j], math.cos(key[j]), math.sin(key[j]), v)
         self._start = (key, v)
         return v
-
-
-def _rot(u: Vec, angle: float, v: Vec) -> Vec:
-    """``Rot(u, angle) v`` (Rodrigues, unit ``u``)."""
-    c, s = math.cos(angle), math.sin(angle)
-    p = dot(u, v) * (1.0 - c)
-    w = cross(u, v)
-    return (
-        v[0] * c + w[0] * s + u[0] * p,
-        v[1] * c + w[1] * s + u[1] * p,
-        v[2] * c + w[2] * s + u[2] * p,
-    )
 
 
 # ------------------------------------------------------------------------------ ranges

@@ -36,6 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from humanoid_ik.core.rotations import wrap_angle
 from humanoid_ik.solvers.analytic.closed_form.joints import (
     GIMBAL,
     branch_angles,
@@ -128,12 +129,6 @@ def _make(ctx: LimbContext, q: list[float], q0: list[float], *labels: Any) -> Ca
     return Candidate(tuple(out), viol == 0.0, viol, *labels)
 
 
-def _wrap(a: float) -> float:
-    """Angle wrapped to (-pi, pi]."""
-    w = math.remainder(a, 2.0 * math.pi)
-    return math.pi if w == -math.pi else w
-
-
 def elbow_branches(ctx: LimbContext, limb: Limb, cos_e: float, q0: list[float]) -> list:
     """``[(qe, label, theta2)]``: ``qe = alpha +- phi`` with ``phi = acos(cos_e)`` (clipped
     to [-1, 1]: beyond reach the limb is straight or folded), each placed into the
@@ -146,7 +141,7 @@ def elbow_branches(ctx: LimbContext, limb: Limb, cos_e: float, q0: list[float]) 
     if 1e-12 < phi < math.pi - 1e-12:
         pairs = ((alpha + phi, "negative", phi - math.pi), (alpha - phi, "positive", math.pi - phi))
     else:
-        pairs = ((alpha + phi, "both", _wrap(phi - math.pi)),)
+        pairs = ((alpha + phi, "both", wrap_angle(phi - math.pi)),)
     return [(place(qe, lo, hi, q0[k]), label, t2) for qe, label, t2 in pairs]
 
 
@@ -159,16 +154,6 @@ def hand(limb: Limb, qe: float) -> Vec:
         fa.Pc[1] + c * fa.Pa[1] + s * fa.Pb[1] - S[1],
         fa.Pc[2] + c * fa.Pa[2] + s * fa.Pb[2] - S[2],
     )
-
-
-def _hinge(u: Vec, v: Vec, w: Vec, free: float) -> float:
-    """Angle [rad] of the turn about unit ``u`` taking ``v`` toward ``w``:
-    ``atan2(u . (v x w), v . w - (u . v)(u . w))`` (``free`` when either lies along ``u``)."""
-    uv, uw = dot(u, v), dot(u, w)
-    vv, ww = dot(v, v), dot(w, w)
-    if vv - uv * uv <= 1e-24 * vv or ww - uw * uw <= 1e-24 * ww:
-        return free
-    return math.atan2(dot(u, cross(v, w)), dot(v, w) - uv * uw)
 
 
 # ------------------------------------------------------------------------------ planar

@@ -33,7 +33,7 @@ from humanoid_ik.solvers.analytic.two_link.shoulders import (
     three_hinge,
     two_hinge,
 )
-from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.base import Solver, error_buffers
 from humanoid_ik.solvers.options import SolverOptions, option
 
 __all__ = ["TwoLink", "TwoLinkOptions", "Solution", "Details"]
@@ -273,7 +273,9 @@ class TwoLink(Solver):
         status, message = self._verdict(chain, ctx, limb, reach, info, best)
         # Solver._result, with the details: measured by core.measures.pose_error
         chain.set_q(q)
-        ep, _ = pose_error(chain.position, chain.rotation, target.position, None, *self._buffers)
+        ep, _ = pose_error(
+            chain.position, chain.rotation, target.position, None, *error_buffers(chain)
+        )
         if status is None:
             status = Status.CONVERGED if ep < o.tol else Status.MAX_ITERATIONS
         elif best.gap > 0.0 and math.isfinite(best.gap):
