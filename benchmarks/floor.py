@@ -10,8 +10,8 @@ iteration of ``lm`` and ``dls``, per model (process CPU time, microseconds).
 - ``lm`` and ``dls``: the best of three slopes of a solve's CPU time over its iteration
   count (solves of K and of 0 iterations from the same starts, tolerances 0 so none
   stops early), for position (3 rows) and pose (6 rows) targets, and the ratio to
-  ``floor``; ``lm`` with its compiled loop (the default, ``solvers/jacobian/lm_loop.py``)
-  and with its Python loop.
+  ``floor``; ``lm``'s loop is its compiled kernel (``solvers/jacobian/_lm_kernel.c``),
+  ``dls``'s is Python.
 
     .venv/bin/python benchmarks/floor.py [--k 200] [--n 20]
 """
@@ -29,8 +29,6 @@ from solvers import MODELS as ARMS  # benchmarks/solvers.py, beside this script
 
 from humanoid_ik import Chain, make_solver
 from humanoid_ik.experiments.bench import make_targets
-from humanoid_ik.solvers.jacobian import lm_loop
-from humanoid_ik.solvers.jacobian.lm import LM
 
 MODELS = dict(list(ARMS.items())[:4])  # the 7- and 8-hinge arms and a 5-hinge one
 
@@ -49,7 +47,7 @@ def cpu_us(f: Callable[[], object], n: int = 20_000) -> float:
 def floor_calls(c: Chain) -> tuple[Callable[[], None], Callable[[], None], Callable[[], None]]:
     """The floor from Python, the three C calls alone, and the numpy-columns Jacobian."""
     m, d, q, adr = c.model, c.data, c.q_home.copy(), c.qpos_adr
-    jacp, jacr, eid = c._jacp, c._jacr, c.ee_id
+    jacp, jacr, eid = np.zeros((3, m.nv)), np.zeros((3, m.nv)), c.ee_id
     jac = mujoco.mj_jacSite if c.ee_kind == "site" else mujoco.mj_jacBody
     kin, com = mujoco.mj_kinematics, mujoco.mj_comPos
     ids, J = c.joint_ids, np.empty((6, c.n))
@@ -75,9 +73,8 @@ def floor_calls(c: Chain) -> tuple[Callable[[], None], Callable[[], None], Calla
     return floor, c_only, columns
 
 
-def per_iteration(c: Chain, name: str, pose: bool, k: int, n: int, compiled: bool = True) -> float:
-    """CPU time of one iteration of solver ``name`` [us] (the slope over ``k``); for
-    ``lm``, ``compiled`` picks its compiled or its Python loop."""
+def per_iteration(c: Chain, name: str, pose: bool, k: int, n: int) -> float:
+    """CPU time of one iteration of solver ``name`` [us] (the slope over ``k``)."""
     targets = make_targets(c, n, 1, pose)
     starts = [c.random_q(np.random.default_rng(i)) for i in range(n)]
     solvers = []
@@ -85,8 +82,6 @@ def per_iteration(c: Chain, name: str, pose: bool, k: int, n: int, compiled: boo
         s = make_solver(
             name, tol=0.0, rot_tol=0.0, restarts=0, max_iterations=iters, stall_window=k + 1
         )
-        if isinstance(s, LM):
-            s.compiled = compiled
         s.solve(c, targets[0], starts[0])  # buffers built before the clock starts
         solvers.append(s)
     slopes = []
@@ -106,29 +101,26 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--k", type=int, default=200, help="iterations per timed solve")
     p.add_argument("--n", type=int, default=20, help="solves per measurement")
     args = p.parse_args(argv)
-    if not lm_loop.AVAILABLE:
-        print(f"note: lm's compiled loop is not available ({lm_loop.REASON})")
     print("CPU time per call or iteration [us]; (ratio) = per iteration / floor")
     print()
     print(
         "| model | floor | C calls | numpy columns | lm position | lm pose "
-        "| lm position, Python loop | lm pose, Python loop | dls position | dls pose |"
+        "| dls position | dls pose |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for label, spec in MODELS.items():
         c = Chain(**spec)
         floor, c_only, columns = floor_calls(c)
         f, co, cols = cpu_us(floor), cpu_us(c_only), cpu_us(columns)
-        runs = [("lm", True), ("lm", False), ("dls", True)]
         cells = [
-            per_iteration(c, name, pose, args.k, args.n, compiled)
-            for name, compiled in runs
+            per_iteration(c, name, pose, args.k, args.n)
+            for name in ("lm", "dls")
             for pose in (False, True)
         ]
-        lm_cells = " | ".join(f"{t:.2f} ({t / f:.1f}x)" for t in cells[:4])
+        lm_cells = " | ".join(f"{t:.2f} ({t / f:.1f}x)" for t in cells[:2])
         print(
             f"| {label} | {f:.2f} | {co:.2f} | {cols:.2f} | {lm_cells} "
-            f"| {cells[4]:.2f} | {cells[5]:.2f} |"
+            f"| {cells[2]:.2f} | {cells[3]:.2f} |"
         )
     return 0
 

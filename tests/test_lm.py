@@ -3,23 +3,27 @@ starts, and FK(IK(x)) = x on the bundled, ``models/robot`` and fixture arms."""
 
 from __future__ import annotations
 
+import importlib.machinery
+import io
 import itertools
 import math
-import os
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
+from mujoco import minimize
 
 from humanoid_ik import Chain, SolverError, make_solver
 from humanoid_ik.core.measures import orientation_error
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.core.types import Status, Target
 from humanoid_ik.experiments.bench import make_targets, run_trials
-from humanoid_ik.solvers.jacobian import lm_loop
+from humanoid_ik.solvers.jacobian import _lm_kernel
+from humanoid_ik.solvers.jacobian.lm import KERNEL_KEY, kernel
 
 from .chains import MODELS, SMALL_ARM_XML, chain, fixture
 from .test_solvers import ROBOT, ROBOT_ARM
@@ -222,9 +226,9 @@ def test_unlimited_hinges_use_an_unbounded_box():
         assert res.converged and res.position_error < 1e-4
 
 
-def test_work_buffers_follow_the_chain_and_task():
+def test_one_solver_object_serves_any_chain_and_task():
     """One solver object on two chains and both task sizes gives the answers a fresh
-    solver gives (its buffers are rebuilt per chain and task size)."""
+    solver gives (it holds no buffer: the kernel is the robot state's)."""
     a, b = Chain(), Chain(MODELS / "planar_arm.xml", "hand_site")
     shared = make_solver("lm")
     for c, pose in ((a, True), (b, False), (a, False), (a, True)):
@@ -274,7 +278,7 @@ def test_follows_a_model_changed_in_place():
     assert c.model.site_sameframe[c.ee_id] == 0  # MuJoCo reads site_quat on every pass
     solver = make_solver("lm")
     tgt = make_targets(c, 1, 4, True)[0]
-    assert solver.solve(c, tgt).converged  # buffers built on the old model
+    assert solver.solve(c, tgt).converged  # the kernel built on the old model
     c.model.site_quat[c.ee_id] = mat_to_quat(
         np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     )
@@ -288,72 +292,207 @@ def test_follows_a_model_changed_in_place():
     assert np.linalg.norm(p2 - p) < 1e-4 and orientation_error(R2, mat_to_quat(R)) < 1e-3
 
 
-def _far_targets(c: Chain, n: int, rng: np.random.Generator) -> list[Target]:
-    """Targets beyond reach (twice as far from the chain's first joint as a reachable
-    one) or, for half of them, a reachable position with a random orientation."""
-    base = c.data.xanchor[c.joint_ids[0]].copy()
-    out = []
-    for t in make_targets(c, n, 7, True):
-        if len(out) % 2:
-            out.append(Target(base + 2.0 * (t.position - base)))
-        else:
-            q = rng.normal(size=4)
-            out.append(Target(t.position, q / np.linalg.norm(q)))
-    return out
+# ----------------------------------------------------------------- the oracle
+ORACLE_WEIGHT = 0.5
+"""lm's default orientation_weight [m/rad]: the oracle weighs the rotation as lm does."""
 
 
-@pytest.mark.parametrize("name", list(_arms()))
-def test_compiled_loop_matches_the_python_loop(name, rng):
-    """The compiled loop (solvers/jacobian/_lm_loop.c) gives the Python loop's answers bit
-    for bit, iterations and statuses included: reachable position and pose targets
-    solved one after the other (each warm-starting from the last), unreachable targets
-    (stalls, restarts, the best pose returned) and solves capped with tolerance 0."""
-    assert lm_loop.AVAILABLE, lm_loop.REASON  # the suite tests the compiled build
-    c = _arms()[name]
-    cases = [
-        ({}, make_targets(c, 25, 5, False)),
-        ({}, make_targets(c, 25, 6, True)),
-        ({"restarts": 3}, _far_targets(c, 6, rng)),
-        ({"tol": 0.0, "rot_tol": 0.0, "restarts": 1, "max_iterations": 20, "stall_window": 100},
-         make_targets(c, 4, 8, True)),
-    ]  # fmt: skip
-    for options, targets in cases:
-        answers = []
-        for compiled in (True, False):
-            solver = make_solver("lm", **options)
-            solver.compiled = compiled
-            c.reset()
-            answers.append([solver.solve(c, t) for t in targets])
-        for got, want in zip(*answers, strict=True):
-            np.testing.assert_array_equal(got.q, want.q)
-            assert (got.iterations, got.status) == (want.iterations, want.status)
-            assert got.position_error == want.position_error
-        if "max_iterations" in options:  # tolerance 0: every start runs to its cap
-            assert all(r.iterations == 40 for r in answers[0])
-        assert all(c.within_limits(r.q, tol=0.0) for r in answers[0])
+def _residual(c: Chain, tgt: Target):
+    """The task residual for ``mujoco.minimize.least_squares``, computed apart from lm:
+    its own MjData (the chain's scratch qpos copied in), MuJoCo's FK, ``p - target`` and
+    ``w * log(target^-1 site)``; vectorised over the columns of ``x`` (n, k)."""
+    m, d = c.model, mujoco.MjData(c.model)
+    d.qpos[:] = c.data.qpos
+    quat, rot = np.empty(4), np.empty(3)
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        x = x.reshape(c.n, -1)
+        out = np.empty((3 if tgt.quat is None else 6, x.shape[1]))
+        for k in range(x.shape[1]):
+            d.qpos[c.qpos_adr] = x[:, k]
+            mujoco.mj_kinematics(m, d)
+            out[:3, k] = d.site_xpos[c.ee_id] - tgt.position
+            if tgt.quat is not None:
+                mujoco.mju_mat2Quat(quat, d.site_xmat[c.ee_id])
+                mujoco.mju_subQuat(rot, quat, tgt.quat)
+                out[3:, k] = ORACLE_WEIGHT * rot
+        return out
+
+    return residual
 
 
-def test_python_loop_on_request():
-    """HUMANOID_IK_LM_LOOP=python runs lm's Python loop, says so, and still solves."""
-    code = (
-        "from humanoid_ik import Chain, make_solver\n"
-        "from humanoid_ik.solvers.jacobian import lm_loop\n"
-        "s = make_solver('lm')\n"
-        "r = s.solve(Chain(), [0.35, -0.30, 1.15])\n"
-        "print(lm_loop.AVAILABLE, s.compiled, r.converged, lm_loop.REASON)\n"
+def _least_squares(c: Chain, tgt: Target, q0: np.ndarray) -> tuple[np.ndarray, float, object]:
+    """MuJoCo's own box-bounded Levenberg-Marquardt (finite-difference Jacobian) from
+    ``q0`` inside the chain's ranges: its answer and its squared residual ``r' r``."""
+    f = _residual(c, tgt)
+    x, _ = minimize.least_squares(
+        q0.copy(), f, bounds=(c.lower, c.upper), verbose=0, output=io.StringIO()
     )
-    env = {**os.environ, "HUMANOID_IK_LM_LOOP": "python"}
-    out = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120
-    )
-    assert out.stdout == "False False True HUMANOID_IK_LM_LOOP=python\n", out.stderr
+    r = f(x)[:, 0]
+    return x.reshape(-1), float(r @ r), f
+
+
+@pytest.mark.parametrize("pose", [False, True])
+def test_reachable_targets_agree_with_least_squares(pose, rng):
+    """Reachable targets on the bundled arm, each from a start 0.3 rad (rms) away from a
+    pose that reaches it: lm and mujoco.minimize.least_squares both converge, and the
+    oracle's residual at lm's answer is within lm's tolerances (FK from the oracle's own
+    MjData)."""
+    c = Chain()
+    lm = make_solver("lm")
+    for _ in range(12):
+        q_star = c.random_q(rng)
+        p, R = c.fk(q_star)
+        tgt = Target(p, mat_to_quat(R) if pose else None)
+        q0 = c.clip(q_star + rng.normal(scale=0.3, size=c.n))
+        res = lm.solve(c, tgt, q0)
+        x, cost, f = _least_squares(c, tgt, q0)
+        assert cost < 1e-12  # the oracle converged
+        assert res.converged and c.within_limits(res.q, tol=0.0)
+        r = f(res.q)[:, 0]
+        assert np.linalg.norm(r[:3]) < 1e-4
+        if pose:
+            assert np.linalg.norm(r[3:]) / ORACLE_WEIGHT < 1e-3
+            assert res.orientation_error == pytest.approx(np.linalg.norm(r[3:]) / 0.5, abs=1e-9)
+        assert res.position_error == pytest.approx(np.linalg.norm(r[:3]), abs=1e-12)
+
+
+UNREACHABLE = [
+    Target([3.0, 0.0, 1.2]),
+    Target([0.2, -1.5, 2.5]),
+    Target([-1.0, -1.0, 0.5]),
+    Target([3.0, 0.0, 1.2], [0.5, 0.5, 0.5, 0.5]),
+    Target([0.2, -1.5, 2.5], [0.0, 1.0, 0.0, 0.0]),
+    Target([-1.0, -1.0, 0.5], [0.5, -0.5, 0.5, 0.5]),
+]
+"""Targets beyond the bundled arm's reach, with and without an orientation."""
+
+
+@pytest.mark.parametrize("tgt", UNREACHABLE, ids=lambda t: f"{t.position}{'+quat' * t.is_pose}")
+def test_unreachable_target_is_no_worse_than_least_squares(tgt):
+    """Beyond reach, from the same start (home): lm's best pose has a squared residual
+    within 2 % of mujoco.minimize.least_squares' optimum (lm stops on a stall, the
+    oracle runs to its own tolerances), inside the ranges, and lm says it missed."""
+    c = Chain()
+    q0 = c.q.copy()
+    res = make_solver("lm").solve(c, tgt, q0)
+    _, cost, f = _least_squares(c, tgt, q0)
+    r = f(res.q)[:, 0]
+    assert not res.converged and c.within_limits(res.q, tol=0.0)
+    assert r @ r <= 1.02 * cost
+    assert res.position_error == pytest.approx(np.linalg.norm(r[:3]), abs=1e-12)
+
+
+# ----------------------------------------------------------------- the kernel
+def test_the_kernel_is_a_compiled_extension_module():
+    """lm's loop is a real CPython extension (an importable module with PyInit, its file
+    an extension-suffix file), built against the MuJoCo that is loaded."""
+    origin = Path(_lm_kernel.__file__)
+    assert any(origin.name.endswith(s) for s in importlib.machinery.EXTENSION_SUFFIXES)
+    assert _lm_kernel.MUJOCO_VERSION == mujoco.mj_version()
+    assert not (origin.parent / "lm_loop.py").exists()
+
+
+def test_the_kernel_lives_in_the_robot_state_and_the_solver_holds_none():
+    """The kernel is built once per robot state (its workspace, KERNEL_KEY), shared by
+    the robot's chains, rebuilt after the live model changed; the solver object holds
+    its options only."""
+    c = Chain()
+    solver = make_solver("lm")
+    solver.solve(c, [0.35, -0.30, 1.15])
+    k = kernel(c)
+    assert c.robot.workspace(KERNEL_KEY, lambda: None) is k
+    assert kernel(Chain(c.robot, "left_palm_site")) is k  # another chain of the robot
+    solver.solve(c, [0.3, -0.25, 1.1])
+    assert kernel(c) is k
+    assert set(vars(solver)) == {"options"}
+    c.model.body_pos[c.model.body("right_forearm_link").id] += [0.0, 0.0, 0.01]
+    res = solver.solve(c, [0.35, -0.30, 1.15])
+    assert kernel(c) is not k  # rebuilt from the changed model
+    assert res.converged and np.linalg.norm(c.fk(res.q)[0] - [0.35, -0.30, 1.15]) < 1e-4
+
+
+def test_joints_off_the_chain_stay_where_the_robot_has_them():
+    """On models/robot the arm chain leaves the waist out: with the waist turned in the
+    robot state, lm solves for the arm with the waist where it is (the kernel copies the
+    robot's qpos) and the scratch data is at the answer."""
+    c = Chain(ROBOT, "right_hand_site", ROBOT_ARM)
+    waist = c.model.joint("waist_yaw").qposadr[0]
+    c.data.qpos[waist] = 0.4
+    mujoco.mj_kinematics(c.model, c.data)
+    q_star = np.array([0.3, -0.2, 0.1, 0.9, 0.2, 0.1, 0.0])
+    p, R = c.fk(q_star)
+    c.set_q(c.q_home)
+    res = make_solver("lm").solve(c, Target(p, mat_to_quat(R)))
+    assert res.converged and c.data.qpos[waist] == 0.4
+    np.testing.assert_allclose(c.position, p, atol=1e-4)  # the scratch data at the answer
+    np.testing.assert_array_equal(c.q, res.q)
+
+
+def test_the_kernel_refuses_bad_arguments():
+    """A wrong length, dtype or address is a Python error, never a call into MuJoCo."""
+    c = Chain()
+    k = kernel(c)
+    o = (1e-4, 1e-3, 0.25, 0.1, 1e-6, 50, 4)
+    args = [c.data.qpos, c.qpos_adr, c.dof_adr, True, c.ee_id, c.lower, c.upper,
+            np.zeros(3), None, o, c.q.copy()]  # fmt: skip
+
+    def call(**change):
+        a = list(args)
+        names = ["qpos", "qadr", "dof", "site", "eid", "lower", "upper", "pos", "quat", "o", "q"]
+        for key, value in change.items():
+            a[names.index(key)] = value
+        return k.descend(*a)
+
+    assert call()[1] >= 0
+    with pytest.raises(ValueError, match="qpos must have 16 values"):
+        call(qpos=np.zeros(3))
+    with pytest.raises(ValueError, match="outside the model"):
+        call(qadr=c.qpos_adr + 100)
+    with pytest.raises(TypeError, match="int64"):
+        call(dof=c.dof_adr.astype(np.float64))
+    with pytest.raises(ValueError, match="ee_id"):
+        call(eid=10_000)
+    with pytest.raises(TypeError, match="writable"):
+        q = c.q.copy()
+        q.flags.writeable = False
+        call(q=q)
+    with pytest.raises(ValueError, match="target_quat must have 4 values"):
+        call(quat=np.zeros(3))
+    with pytest.raises(ValueError, match="Kernel"):
+        _lm_kernel.Kernel(b"not a model")
+
+
+def test_a_kernel_serves_one_thread_at_a_time():
+    """Two threads calling one kernel at once: the second is refused (RuntimeError),
+    the first finishes; in lm a robot state, and so its kernel, serves one thread."""
+    c = Chain()
+    k = kernel(c)
+    far = np.array([5.0, 0.0, 1.2])
+    o = (0.0, 0.0, 0.25, 0.1, 1e-6, 100_000, 100_000)  # a long run without the GIL
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            k.descend(c.data.qpos, c.qpos_adr, c.dof_adr, True, c.ee_id, c.lower, c.upper,
+                      far, None, o, c.q.copy())  # fmt: skip
+        except RuntimeError as exc:
+            errors.append(exc)
+
+    threads = [threading.Thread(target=run) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(errors) <= 1  # usually 1; 0 when one call ended before the other began
+    assert all("in use by another thread" in str(e) for e in errors)
 
 
 @pytest.mark.slow
-def test_floor_benchmark_reports_both_loops():
+def test_floor_benchmark_reports_the_kernel_against_the_floor():
     """benchmarks/floor.py prints one row per arm with the floor and lm's per-iteration
-    cost in both loops, each with its ratio to that row's floor (speed itself is the
-    benchmark's business, not a test's)."""
+    cost (its compiled kernel), each with its ratio to that row's floor, and dls's
+    (speed itself is the benchmark's business, not a test's)."""
     root = Path(__file__).resolve().parents[1]
     out = subprocess.run(
         [sys.executable, str(root / "benchmarks" / "floor.py"), "--k", "10", "--n", "3"],
@@ -363,12 +502,13 @@ def test_floor_benchmark_reports_both_loops():
     rows = [
         line for line in out.stdout.splitlines() if line.startswith("| ") and "|---" not in line
     ]
-    assert rows[0].startswith("| model | floor | C calls |") and "lm pose, Python loop" in rows[0]
-    assert len(rows) == 5 and "not available" not in out.stdout
+    assert rows[0].startswith("| model | floor | C calls |") and "| lm pose |" in rows[0]
+    assert "Python loop" not in out.stdout and len(rows) == 5
     for row in rows[1:]:
         cells = [c.strip() for c in row.strip("|").split("|")]
+        assert len(cells) == 8
         floor = float(cells[1])
-        for cell in cells[4:8]:  # "1.37 (0.7x)": lm per iteration, its ratio (both rounded)
+        for cell in cells[4:6]:  # "1.37 (0.7x)": lm per iteration, its ratio (both rounded)
             value, ratio = cell.split()
             assert float(ratio.strip("(x)")) == pytest.approx(float(value) / floor, abs=0.1)
 
@@ -401,16 +541,18 @@ def test_seed_library_ranks_by_distance_and_angle(right_arm):
 
 
 def test_threads_on_a_shared_model_match_one_thread():
-    """The compiled loop runs without the GIL: two threads, each with its own chain and
-    solver on one shared MjModel, give the serial answers bit for bit."""
+    """The kernel runs without the GIL: two threads, each with its own chain (and so its
+    own robot state and kernel) on one shared MjModel, sharing one solver object, give
+    the serial answers bit for bit."""
     from concurrent.futures import ThreadPoolExecutor
 
     model = Chain().model
     targets = make_targets(Chain(model), 30, 21, True)
+    shared = make_solver("lm")
 
     def run(_: int = 0) -> list:
-        c, s = Chain(model), make_solver("lm")
-        return [s.solve(c, t).q for t in targets]
+        c = Chain(model)
+        return [shared.solve(c, t).q for t in targets]
 
     serial = run()
     with ThreadPoolExecutor(2) as pool:
@@ -419,17 +561,3 @@ def test_threads_on_a_shared_model_match_one_thread():
         assert len(out) == len(serial)
         for q, q1 in zip(out, serial, strict=True):
             np.testing.assert_array_equal(q, q1)
-
-
-def test_a_compiled_loop_older_than_its_source_is_not_used(tmp_path):
-    """In a checkout, a compiled loop built before the last edit of _lm_loop.c is stale
-    (lm then runs its Python loop and --version says why); a wheel has no source."""
-    source, compiled = tmp_path / "_lm_loop.c", tmp_path / "_lm_loop.so"
-    compiled.write_bytes(b"")
-    source.write_text("")
-    os.utime(compiled, (1_000, 1_000))
-    os.utime(source, (2_000, 2_000))
-    assert lm_loop.stale(source, compiled)
-    os.utime(compiled, (3_000, 3_000))
-    assert not lm_loop.stale(source, compiled)
-    assert not lm_loop.stale(tmp_path / "missing.c", compiled)

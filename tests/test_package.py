@@ -169,12 +169,19 @@ def test_wheel_carries_and_finds_its_bundled_files(tmp_path):
     assert res.returncode == 0 and res.stdout.splitlines()[1].startswith("circle ")
     res = run("-m", "humanoid_ik", "solve", "--target", "0.35,-0.30,1.15", "--solver", "dls")
     assert res.returncode == 0 and "converged" in res.stdout, res.stderr
-    # lm's loop is compiled into the wheel and loaded from there
-    assert [n for n in names if "_lm_loop" in n] == [
-        f"humanoid_ik/solvers/jacobian/_lm_loop{sysconfig.get_config_var('EXT_SUFFIX')}"
+    # lm's kernel is compiled into the wheel (a platform wheel) and loaded from there
+    kernel = "humanoid_ik/solvers/jacobian/_lm_kernel"
+    assert sorted(n for n in names if "_lm_" in n) == [
+        f"{kernel}{sysconfig.get_config_var('EXT_SUFFIX')}",
+        f"{kernel}.pyi",
     ]
-    res = run("-m", "humanoid_ik", "--version")
-    assert "lm loop compiled" in res.stdout, res.stdout + res.stderr
+    assert not wheel.name.endswith("-none-any.whl"), wheel.name
+    res = run(
+        "-c", "from humanoid_ik.solvers.jacobian import _lm_kernel; print(_lm_kernel.__file__)"
+    )
+    assert res.stdout.startswith(f"{site}/{kernel}"), res.stdout + res.stderr
+    res = run("-m", "humanoid_ik", "solve", "--target", "0.35,-0.30,1.15", "--solver", "lm")
+    assert res.returncode == 0 and "converged" in res.stdout, res.stderr
 
 
 def _wheel(src: Path, dist: Path, env: dict[str, str] | None = None) -> Path:
@@ -189,28 +196,30 @@ def _wheel(src: Path, dist: Path, env: dict[str, str] | None = None) -> Path:
     return wheel
 
 
+NO_COMPILER = (
+    "humanoid_ik: building the lm kernel needs a C compiler and Python's headers "
+    "(on Debian/Ubuntu: apt-get install gcc libc6-dev python3-dev; see docs/lm.md)"
+)
+"""The line setup.py stops with when the compiler does not work."""
+
+
 @pytest.mark.slow
-def test_without_a_c_compiler_the_wheel_builds_and_lm_runs_its_python_loop(tmp_path):
-    """The compiled loop is optional: with a compiler that fails (CC=false), the wheel
-    still builds, has no compiled file, and lm solves with its Python loop, which
-    --version reports."""
+def test_without_a_c_compiler_the_build_fails_with_one_line(tmp_path):
+    """lm's kernel is required: with a compiler that fails (CC=/bin/false) the wheel
+    build fails, and the output has the one line saying what to install (no traceback
+    in it), and no wheel is made."""
     src = _clean_copy(tmp_path / "src")
-    wheel = _wheel(src, tmp_path / "dist", {**os.environ, "CC": "false"})
-    with zipfile.ZipFile(wheel) as z:
-        assert not [n for n in z.namelist() if "_lm_loop" in n], z.namelist()
-        z.extractall(tmp_path / "site")
-    env = {**os.environ, "PYTHONPATH": str(tmp_path / "site")}
-    probe = subprocess.run(
-        [sys.executable, "-m", "humanoid_ik", "--version"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
+    dist = tmp_path / "dist"
+    env = {**os.environ, "CC": "/bin/false", "LDSHARED": "/bin/false -shared"}
+    proc = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(src)],
+        capture_output=True, text=True, timeout=600, env=env,
     )  # fmt: skip
-    assert "lm loop Python (not compiled" in probe.stdout, probe.stdout + probe.stderr
-    solve = subprocess.run(
-        [sys.executable, "-m", "humanoid_ik", "solve", "--target", "0.35,-0.30,1.15",
-         "--solver", "lm"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
-    assert "converged" in solve.stdout, solve.stdout + solve.stderr
+    out = proc.stdout + proc.stderr
+    assert proc.returncode != 0, out
+    (line,) = [x.strip() for x in out.splitlines() if NO_COMPILER in x]
+    assert line.startswith(NO_COMPILER) and "Traceback" not in line, line
+    assert not list(dist.glob("*.whl"))
 
 
 @pytest.mark.slow
@@ -230,7 +239,8 @@ def test_sdist_carries_the_bundled_folders_and_builds_the_wheel(tmp_path):
     with tarfile.open(sdist) as t:
         names = {n.split("/", 1)[1] for n in t.getnames() if "/" in n}
     assert {"models/humanoid/scene.xml", "scenes/circle.toml", "setup.py"} <= names
-    assert "src/humanoid_ik/solvers/jacobian/_lm_loop.c" in names
+    assert "src/humanoid_ik/solvers/jacobian/_lm_kernel.c" in names
+    assert "src/humanoid_ik/solvers/jacobian/_lm_kernel.pyi" in names
     (wheel,) = dist.glob("humanoid_ik-*.whl")
     with zipfile.ZipFile(wheel) as z:
         assert "humanoid_ik/_bundled/scenes/circle.toml" in z.namelist()

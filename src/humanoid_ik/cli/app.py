@@ -23,6 +23,7 @@ from humanoid_ik.cli import (
     dataset,
     export,
     inspect,
+    render,
     replay,
     run,
     scenes,
@@ -36,7 +37,7 @@ from humanoid_ik.errors import HumanoidIKError
 
 __all__ = ["build_parser", "main"]
 
-_COMMANDS = (solve, bench, inspect, scenes, run, replay, export, view, sweep, dataset)
+_COMMANDS = (solve, bench, inspect, render, scenes, run, replay, export, view, sweep, dataset)
 
 EXIT_INTERRUPTED = 130
 """Ctrl-C: 128 + SIGINT."""
@@ -52,16 +53,13 @@ class Terminated(KeyboardInterrupt):
 
 
 class _Version(argparse.Action):
-    """``--version``: the package, MuJoCo, and whether ``lm`` runs its compiled loop
-    (imported only when asked, so other commands start without it)."""
+    """``--version``: the package and MuJoCo (imported only when asked, so other
+    commands start without it)."""
 
     def __call__(self, parser, namespace, values, option_string=None):
         import mujoco
 
-        from humanoid_ik.solvers.jacobian import lm_loop
-
-        loop = "compiled" if lm_loop.AVAILABLE else f"Python ({lm_loop.REASON})"
-        print(f"humanoid-ik {version('humanoid-ik')} (mujoco {mujoco.__version__}, lm loop {loop})")
+        print(f"humanoid-ik {version('humanoid-ik')} (mujoco {mujoco.__version__})")
         parser.exit()
 
 

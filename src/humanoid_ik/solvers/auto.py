@@ -1,26 +1,21 @@
-"""``auto``: the fastest solver that applies to the chain and task, and ``lm`` behind it.
+"""``auto``: the fastest solver that applies to the chain and task, and a second opinion
+after a miss.
 
-The choice, per chain and task (measured in ``docs/lm.md``):
+The choice depends on the chain and the target only (measured in ``docs/lm.md``):
 
 - a pose target: ``closed_form`` where the chain is a spherical shoulder, an elbow and
   a spherical wrist (its :meth:`~humanoid_ik.solvers.base.Solver.applicable`): exact,
   one pass, the tightest tail; else ``lm``;
-- a position target: ``lm`` where its compiled loop runs (:attr:`LM.compiled`): the
-  lowest median and mean CPU time per solve on every arm measured, at full success,
-  where the closed forms miss 2-6 % of reachable targets;
-- a position target with ``lm``'s Python loop: ``closed_form`` as above, else
-  ``two_link`` on a chain it places whole (shoulder and elbow hinges, no joint after
-  the elbow), else ``lm`` (with joints riding after the elbow ``two_link`` holds them
-  and misses reachable targets: 53 % success on the ``models/robot`` waist-and-arm
-  chain).
+- a position target: ``lm``: the lowest median and mean CPU time per solve on every
+  arm measured, at full success, where the closed forms miss 2-6 % of reachable
+  targets (they keep the wrist where it was).
 
-The closed forms of a position target keep the joints they do not place (the wrist)
-where they were, so a position target they miss may still be reachable: ``lm`` then
-solves it from the same start. A position target ``lm`` misses goes to the closed form
-where one applies (its answer to a target beyond reach is the arm stretched towards it,
-with the status ``unreachable``), and the closer answer is returned. A pose target
-``closed_form`` calls unreachable is unreachable within the ranges (the closed form is
-complete), so it is returned as is.
+A position target ``lm`` misses goes to a second opinion where one applies:
+``closed_form`` as above, else ``two_link`` on a chain it places whole (shoulder and
+elbow hinges, no joint after the elbow); their answer to a target beyond reach is the
+arm stretched towards it, with the status ``unreachable``. The closer of the two answers
+is returned. A pose target ``closed_form`` calls unreachable is unreachable within the
+ranges (the closed form is complete), so it is returned as is.
 
 The answer records the choice: :attr:`IKResult.solver` names the solver that produced
 it, and ``details["auto"]`` lists the solvers tried, in order.
@@ -45,16 +40,16 @@ __all__ = ["Auto"]
 
 
 class Auto(Solver):
-    """``closed_form`` for pose targets where it applies, ``lm`` for position targets
-    and otherwise (with ``lm``'s Python loop, the closed forms first for position
-    targets too, ``lm`` after their miss; see the module docstring).
+    """``closed_form`` for pose targets where it applies, else ``lm``; for position
+    targets ``lm``, then a closed form's second opinion after a miss (see the module
+    docstring).
 
     Options: ``tol`` and ``rot_tol``, handed to each solver it runs (each keeps its
     other options' defaults).
 
-    Caches: the three solvers it may run, made with the options (their own caches are
-    documented with them); the choice per chain and task, kept with the chain
-    (:meth:`Chain.derived`, dropped when the chain's model changes).
+    State: the three solvers it may run, made with the options (themselves without
+    state); the choice per chain and task is kept with the chain (:meth:`Chain.derived`,
+    dropped when the model changes).
     """
 
     name: ClassVar[str] = "auto"
@@ -71,44 +66,48 @@ class Auto(Solver):
             s.name: s for s in (self._closed_form, self._two_link, self._lm)
         }
 
-    @property
-    def lm(self) -> LM:
-        """The ``lm`` solver ``auto`` runs; its ``compiled`` decides the position rule."""
-        return self._lm
+    def choice(self, chain: Chain, pose: bool = False) -> Solver:
+        """The solver ``auto`` runs first on ``chain`` for a pose (or position) target
+        (kept with the chain, :meth:`Chain.derived`)."""
+        key = ("auto", pose)
+        return self._by_name[chain.derived(key, lambda c: self._choose(c, pose))]
 
-    def choice(self, chain: Chain, pose: bool = False, compiled: bool | None = None) -> Solver:
-        """The solver ``auto`` runs first on ``chain`` for a pose (or position) target,
-        for ``lm``'s compiled or Python loop (default: the loop it runs). The choice is
-        kept with the chain (:meth:`Chain.derived`)."""
-        compiled = self._lm.compiled if compiled is None else compiled
-        key = ("auto", pose, compiled)
-        return self._by_name[chain.derived(key, lambda c: self._choose(c, pose, compiled))]
+    def second_opinion(self, chain: Chain) -> Solver | None:
+        """The solver that tries a position target ``lm`` missed on ``chain``, ``None``
+        where no closed form applies (kept with the chain)."""
+        name = chain.derived(("auto", "second_opinion"), self._second)
+        return None if name is None else self._by_name[name]
 
-    def _choose(self, chain: Chain, pose: bool, compiled: bool) -> str:
-        if not pose and compiled:
-            return self._lm.name
-        if self._closed_form.applicable(chain, pose) is None:
+    def _choose(self, chain: Chain, pose: bool) -> str:
+        if pose and self._closed_form.applicable(chain, pose) is None:
             return self._closed_form.name
-        if self._two_link.applicable(chain, pose) is None and limb_cache(chain).k + 1 == chain.n:
-            return self._two_link.name
         return self._lm.name
 
+    def _second(self, chain: Chain) -> str | None:
+        if self._closed_form.applicable(chain, False) is None:
+            return self._closed_form.name
+        if self._two_link.applicable(chain, False) is None and limb_cache(chain).k + 1 == chain.n:
+            return self._two_link.name
+        return None
+
     def prepare(self, chain: Chain) -> None:
-        """Prepare the solvers that may run on ``chain`` (both tasks) before any timed solve."""
+        """Prepare the solvers that may run on ``chain`` (both tasks and the second
+        opinion) before any timed solve."""
         for pose in (False, True):
-            for compiled in (True, False):  # the first choice and the second opinion
-                self.choice(chain, pose, compiled).prepare(chain)
-        self._lm.prepare(chain)
+            self.choice(chain, pose).prepare(chain)
+        second = self.second_opinion(chain)
+        if second is not None:
+            second.prepare(chain)
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
         first = self.choice(chain, target.is_pose)
         result = first._solve(chain, target, q0)
         tried: tuple[str, ...] = (first.name,)
         if not result.converged and not target.is_pose:
-            # a closed form's miss goes to lm; lm's miss to the closed form, whose
-            # answer to a target out of reach is the arm stretched towards it
-            second = self._lm if first is not self._lm else self.choice(chain, False, False)
-            if second is not first:
+            # lm's miss to the closed form, whose answer to a target out of reach is the
+            # arm stretched towards it
+            second = self.second_opinion(chain)
+            if second is not None:
                 retry = second._solve(chain, target, q0)
                 tried += (second.name,)
                 if retry.converged or retry.position_error < result.position_error:

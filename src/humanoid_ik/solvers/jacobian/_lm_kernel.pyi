@@ -1,0 +1,31 @@
+"""Type stub of the compiled ``_lm_kernel`` module (``_lm_kernel.c``)."""
+
+import numpy as np
+from numpy.typing import NDArray
+
+MUJOCO_VERSION: int
+"""``mjVERSION_HEADER`` of the MuJoCo headers the module was built against."""
+
+class Kernel:
+    """lm's iteration loop on its own copy of a model (the bytes of ``mj_saveModel``)."""
+
+    def __init__(self, model: bytes | NDArray[np.uint8]) -> None: ...
+    @property
+    def nq(self) -> int: ...
+    @property
+    def nv(self) -> int: ...
+    def descend(
+        self,
+        qpos: NDArray[np.float64],
+        qpos_adr: NDArray[np.int64],
+        dof_adr: NDArray[np.int64],
+        site: bool,
+        ee_id: int,
+        lower: NDArray[np.float64],
+        upper: NDArray[np.float64],
+        target_pos: NDArray[np.float64],
+        target_quat: NDArray[np.float64] | None,
+        options: tuple[float, float, float, float, float, int, int],
+        q: NDArray[np.float64],
+        /,
+    ) -> tuple[bool, int, float, float, float]: ...
