@@ -33,9 +33,10 @@ import mink
 import numpy as np
 from solvers import ROBOT_ARM  # benchmarks/solvers.py, beside this script
 
+from humanoid_ik.config.scene import load_scene
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import on_target
-from humanoid_ik.core.models import bundled_dir
+from humanoid_ik.core.models import bundled_dir, load_model
 from humanoid_ik.core.rotations import axis_angle_matrix, mat_to_quat
 from humanoid_ik.core.types import Target
 from humanoid_ik.experiments.bench import make_targets
@@ -178,7 +179,13 @@ def targets_at(t: float) -> dict[str, object]:
 
 def tracking(steps: int, warmup: int, dt: float) -> dict[str, Any]:
     """``UpperBodyIK.step`` on the moving targets: median and p95 per step, the errors."""
-    ik = UpperBodyIK()
+    pairs = load_scene("upper_body_mink").solver.options["collision_pairs"]  # the humanoid's
+    ik = UpperBodyIK(
+        load_model(None),
+        hands=("right_palm_site", "left_palm_site"),
+        gaze="gaze_site",
+        collision_pairs=pairs,
+    )
     times = np.empty(steps)
     cpu = 0.0
     errors = np.empty((steps, 3))

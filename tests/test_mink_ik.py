@@ -1,6 +1,10 @@
 """The mink solver: single-chain IK, both hands + gaze in one QP, limits, collisions,
 frozen joints, the gaze and position task Jacobians, the QP step against mink's public
-``solve_ik``, the caches, the private-name adapter, and the errors it raises.
+``solve_ik``, the caches in the robot workspace, one solver object shared by two
+threads, the options, the private-name adapter, and the errors it raises.
+
+The bundled humanoid's effectors are named here and its collision pairs are read from
+``scenes/upper_body_mink.toml``: the solver itself has no robot-specific defaults.
 
 Real mink and daqp throughout, no mocks.
 """
@@ -11,6 +15,9 @@ import ast
 import math
 import subprocess
 import sys
+import threading
+import tomllib
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
@@ -31,15 +38,16 @@ from humanoid_ik import (
     solve,
 )
 from humanoid_ik.core.measures import axis_vector, gaze_error
+from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.rotations import mat_to_quat, rotation_log
 from humanoid_ik.experiments.bench import make_targets
 from humanoid_ik.solvers import mink as mink_solver
 from humanoid_ik.solvers.mink import (
-    DEFAULT_COLLISION_PAIRS,
     CollisionLimit,
     GazeTask,
     JointRangeLimit,
     JointVelocityLimit,
+    MinkOptions,
     MinkSolver,
     PositionTask,
     UpperBodyIK,
@@ -47,6 +55,22 @@ from humanoid_ik.solvers.mink import (
 )
 
 from .chains import SMALL_ARM_XML, model
+
+ROOT = Path(__file__).resolve().parents[1]
+HANDS = ("right_palm_site", "left_palm_site")
+GAZE = "gaze_site"
+_SCENE = tomllib.loads((ROOT / "scenes" / "upper_body_mink.toml").read_text())
+PAIRS = MinkOptions(collision_pairs=_SCENE["solver"]["options"]["collision_pairs"]).collision_pairs
+"""The bundled humanoid's collision pairs, as the bundled scene names them."""
+
+
+def _upper_body(model=None, **kwargs) -> UpperBodyIK:
+    """UpperBodyIK on the bundled humanoid (or ``model``): both hands, the gaze and the
+    scene's collision pairs unless ``kwargs`` say otherwise."""
+    kwargs.setdefault("hands", HANDS)
+    kwargs.setdefault("gaze", GAZE)
+    kwargs.setdefault("collision_pairs", PAIRS)
+    return UpperBodyIK(Robot() if model is None else model, **kwargs)
 
 
 class Goal(NamedTuple):
@@ -194,7 +218,7 @@ def test_frozen_joint_outside_its_range_does_not_fail():
 
 def test_active_joint_outside_its_range_is_moved_inside():
     """An active joint starting outside its range is clipped in before the step."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     q = ik.q_home.copy()
     elbow = ik.model.joint("right_elbow_joint").qposadr[0]
     q[elbow] = -0.4
@@ -207,7 +231,7 @@ def test_active_joint_outside_its_range_is_moved_inside():
 def test_limits_never_violated_over_a_long_tracking_run():
     """2000 steps after targets sweeping through and far beyond the workspace: every
     joint inside its range and every step within the velocity limit."""
-    ik = UpperBodyIK(max_velocity=3.0)
+    ik = _upper_body(max_velocity=3.0)
     chains = list(ik.chains.values())
     lo = np.concatenate([c.lower for c in chains])
     hi = np.concatenate([c.upper for c in chains])
@@ -252,12 +276,12 @@ def test_collisions_avoided_while_pulled_through_the_torso():
             worst = min(worst, _min_distance(ik.model, ik.configuration.data))
         return worst
 
-    ik = UpperBodyIK()
+    ik = _upper_body()
     assert _min_distance(ik.model, ik.configuration.data) > 0.05
     worst = run(ik)
     assert worst > 0.0
-    assert worst >= 0.5 * ik.options["min_distance"] - 1e-6
-    assert run(UpperBodyIK(collision_pairs=None)) < -0.02
+    assert worst >= 0.5 * ik.options.min_distance - 1e-6
+    assert run(_upper_body(collision_pairs=None)) < -0.02
 
 
 # ---------------------------------------------------------------------------- gaze
@@ -365,7 +389,7 @@ def test_gaze_gradient_matches_mink_look_at_task():
 @pytest.mark.parametrize("point", [[1.0, 0.3, 1.5], [1.0, -0.5, 1.8], [0.5, 0.0, 1.3]])
 def test_gaze_converges_to_the_target_direction(point):
     """solve() turns the head until the gaze site's x axis points at the target."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     res = ik.solve({"gaze_site": point})
     assert res.converged and res.iterations < 20
     checker = Chain(None, "gaze_site")
@@ -377,7 +401,7 @@ def test_gaze_converges_to_the_target_direction(point):
 # ---------------------------------------------------------------------------- jointly
 def test_one_qp_step_reduces_both_hands_and_gaze_errors():
     """One step with both hands and the gaze lowers all three errors and moves all 16."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     p, R = Chain().fk([0.7, 0.3, 0.2, 1.3, 0.3, 0.2, 0.1])
     targets = {
         "right_palm_site": Target(p, mat_to_quat(R)),
@@ -399,7 +423,7 @@ def test_one_qp_step_reduces_both_hands_and_gaze_errors():
 
 def test_absent_targets_freeze_their_chain():
     """A step with the right hand only keeps the left arm and the neck exactly."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     before = ik.q
     res = ik.step({"right_palm_site": [0.3, -0.3, 1.1], "left_palm_site": None}, 0.01)
     moved = np.flatnonzero(res.q != before)
@@ -409,7 +433,7 @@ def test_absent_targets_freeze_their_chain():
 
 def test_load_and_apply_touch_only_chain_joints():
     """load() reads the caller's qpos; apply() writes the chains' joints and runs FK."""
-    ik = UpperBodyIK(hands=("right_palm_site",), gaze=None)
+    ik = _upper_body(hands=("right_palm_site",), gaze=None)
     m = ik.model
     d = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
@@ -424,7 +448,7 @@ def test_load_and_apply_touch_only_chain_joints():
 
 def test_result_is_read_only():
     """UpperBodyResult: q and the per-effector mapping cannot be changed."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     res = ik.step({"gaze_site": [1.0, 0.0, 1.5]}, 0.01)
     with pytest.raises(ValueError):
         res.q[0] = 1.0
@@ -434,7 +458,7 @@ def test_result_is_read_only():
 
 def test_empty_targets_do_nothing():
     """No targets: no step, nothing moves, a converged empty result."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     before = ik.q
     for res in (ik.step({}, 0.01), ik.solve({"left_palm_site": None})):
         assert res.iterations == 0 and res.converged and not res.effectors
@@ -443,7 +467,7 @@ def test_empty_targets_do_nothing():
 
 def test_unreachable_target_stops_with_a_reason():
     """A target 3 m away: solve stops (stall or max_iterations) with the reason."""
-    ik = UpperBodyIK(max_iterations=30)
+    ik = _upper_body(max_iterations=30)
     res = ik.solve({"right_palm_site": [3.0, -3.0, 1.0]})
     assert not res.converged and res.status == "max_iterations" and res.message
 
@@ -485,7 +509,7 @@ def _goals(tasks=("reach", "reach", "look_at")) -> list[Goal]:
 def test_solve_effectors_moves_hands_and_gaze_together():
     """The runner hook: dt = 0 converges all three; dt > 0 is one rate-limited step."""
     goals = _goals()
-    out = MinkSolver(collisions=True).solve_effectors(goals)
+    out = MinkSolver(collision_pairs=PAIRS).solve_effectors(goals)
     assert [r.converged for r in out] == [True, True, True]
     for g, r in zip(goals, out, strict=True):
         assert g.chain.within_limits(r.q, tol=0.0)
@@ -551,12 +575,12 @@ def test_range_and_velocity_limit_rows():
 def test_collision_rows_are_displacement_bounds():
     """Row -n'(J2 - J1) dq <= gain (d - d_min) whatever dt, and -G dq predicts the
     change of distance to first order."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     m = ik.model
     q = ik.q_home.copy()
     q[ik.chains["right_palm_site"].qpos_adr] = [0.3, -0.2, 0.5, 2.0, 0.0, 0.0, 0.0]
     cfg = mink.Configuration(m, q)
-    lim = CollisionLimit(m, DEFAULT_COLLISION_PAIRS, gain=0.5, collision_detection_distance=0.3)
+    lim = CollisionLimit(m, PAIRS, gain=0.5, collision_detection_distance=0.3)
     G1, h1 = lim.compute_qp_inequalities(cfg, 0.01)
     G2, h2 = lim.compute_qp_inequalities(cfg, 1.0)
     np.testing.assert_array_equal(h1, h2)
@@ -597,55 +621,53 @@ def _mink_solve_ik(ik: UpperBodyIK, q: np.ndarray, targets: dict, dt: float) -> 
     tasks: list = []
     for name, value in targets.items():
         if name == "gaze_site":
-            gaze = GazeTask(m, name, cost=o["gaze_cost"])
+            gaze = GazeTask(m, name, cost=o.gaze_cost)
             gaze.set_target(value)
             tasks.append(_PlainTask(gaze))
         elif isinstance(value, Target) and value.is_pose:
             frame = mink.FrameTask(
                 name,
                 "site",
-                position_cost=o["position_cost"],
-                orientation_cost=o["orientation_cost"],
-                lm_damping=o["lm_damping"],
+                position_cost=o.position_cost,
+                orientation_cost=o.orientation_cost,
+                lm_damping=o.lm_damping,
             )
             frame.set_target(mink.SE3(np.concatenate([value.quat, value.position])))
             tasks.append(frame)
         else:
-            pos = PositionTask(m, name, cost=o["position_cost"], lm_damping=o["lm_damping"])
+            pos = PositionTask(m, name, cost=o.position_cost, lm_damping=o.lm_damping)
             pos.set_target(value)
             tasks.append(_PlainTask(pos))
-    posture = mink.PostureTask(m, cost=o["posture_cost"], gain=o["posture_gain"])
+    posture = mink.PostureTask(m, cost=o.posture_cost, gain=o.posture_gain)
     posture.set_target(ik.q_home)
     tasks.append(posture)
     joints = [m.joint(j).name for c in ik.chains.values() for j in c.joint_ids]
     limits: list = [
-        mink.ConfigurationLimit(m, gain=o["range_gain"]),
-        mink.VelocityLimit(m, dict.fromkeys(joints, o["max_velocity"])),
+        mink.ConfigurationLimit(m, gain=o.range_gain),
+        mink.VelocityLimit(m, dict.fromkeys(joints, o.max_velocity)),
     ]
     if ik.collision_limit is not None:
         limits.append(
             mink.CollisionAvoidanceLimit(
                 m,
-                DEFAULT_COLLISION_PAIRS,
-                gain=o["collision_gain"],
-                minimum_distance_from_collisions=o["min_distance"],
-                collision_detection_distance=o["detection_distance"],
+                PAIRS,
+                gain=o.collision_gain,
+                minimum_distance_from_collisions=o.min_distance,
+                collision_detection_distance=o.detection_distance,
             )
         )
     active = np.concatenate([ik.chains[n].dof_adr for n in targets])
     frozen = np.setdiff1d(np.arange(m.nv), active)
     freeze = [mink.DofFreezingTask(m, frozen.tolist())] if frozen.size else None
     cfg = mink.Configuration(m, q.copy())
-    v = mink.solve_ik(
-        cfg, tasks, dt, "daqp", damping=o["damping"], limits=limits, constraints=freeze
-    )
+    v = mink.solve_ik(cfg, tasks, dt, "daqp", damping=o.damping, limits=limits, constraints=freeze)
     return v * dt
 
 
 def _case_hands_and_gaze() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
     """Both hands (right pose, left position) and the gaze, with error-scaled damping:
     the velocity limit binds on some joints."""
-    ik = UpperBodyIK(collision_pairs=None, lm_damping=0.01)
+    ik = _upper_body(collision_pairs=None, lm_damping=0.01)
     q = ik.q_home.copy()
     q[ik.chains["right_palm_site"].qpos_adr] = [0.3, 0.2, 0.1, 1.0, 0.2, 0.1, 0.0]
     q[ik.chains["left_palm_site"].qpos_adr] = [0.2, 0.1, -0.1, 0.8, -0.2, 0.0, 0.1]
@@ -661,7 +683,7 @@ def _case_hands_and_gaze() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
 def _case_collisions() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
     """The right hand pulled into the torso: a collision row binds. dt = 1 s, where mink's
     collision bound (divided by dt) and ours (a displacement) agree."""
-    ik = UpperBodyIK(max_velocity=1.0)
+    ik = _upper_body(max_velocity=1.0)
     q = ik.q_home.copy()
     q[ik.chains["right_palm_site"].qpos_adr] = [0.3, -0.2, 0.5, 2.0, 0.0, 0.0, 0.0]
     targets = {"right_palm_site": np.array([-0.1, 0.0, 1.2])}
@@ -671,7 +693,7 @@ def _case_collisions() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
 def _case_one_chain() -> tuple[UpperBodyIK, np.ndarray, dict, float]:
     """One arm with a pose target (MinkSolver's case); the other joints frozen away
     from home."""
-    ik = UpperBodyIK(hands=("right_palm_site",), gaze=None, collision_pairs=None)
+    ik = _upper_body(hands=("right_palm_site",), gaze=None, collision_pairs=None)
     m = ik.model
     q = ik.q_home.copy()
     for name, value in [("left_elbow_joint", 1.2), ("neck_yaw_joint", 0.4)]:
@@ -697,7 +719,7 @@ def test_qp_step_matches_mink_solve_ik(case):
     theirs = _mink_solve_ik(ik, q, targets, dt)
     np.testing.assert_allclose(ours, theirs, rtol=0.0, atol=1e-8)
     # a step the objective shapes: some bounds bind, not all
-    vmax = ik.options["max_velocity"] * dt
+    vmax = ik.options.max_velocity * dt
     active = np.concatenate([ik.chains[n].dof_adr for n in targets])
     at_bound = np.isclose(np.abs(ours[active]), vmax, atol=1e-9)
     assert at_bound.any() and not at_bound.all()
@@ -779,13 +801,23 @@ def test_prepare_builds_everything_a_timed_solve_uses(monkeypatch):
 
 
 def test_caches_are_rebuilt_only_for_other_chains_or_goals():
-    """The solve cache follows the chain object; the solve_effectors cache follows the
-    goals' chains and tasks; prepare_effectors fills the latter."""
+    """The UpperBodyIK lives in the robot's workspace, keyed by the options and the
+    chain (end effector, joints) or the goals' chains and tasks: an equal chain of the
+    same robot and another solver object with equal options share it; another robot
+    state, other options, other goals or a changed model get their own;
+    prepare_effectors fills the goals' one. The solver object holds none of them."""
     solver = MinkSolver()
     a, b = Chain(), Chain()
     ik_a = solver.upper_body(a)
     assert solver.upper_body(a) is ik_a
-    assert solver.upper_body(b) is not ik_a  # equal, but another chain object
+    assert solver.upper_body(Chain(a.robot)) is ik_a  # an equal chain of the same robot
+    assert MinkSolver().upper_body(a) is ik_a  # equal options: the same key
+    assert solver.upper_body(b) is not ik_a  # another robot state
+    assert MinkSolver(max_step=0.1).upper_body(a) is not ik_a
+    assert solver.upper_body(Chain(a.robot, "left_palm_site")) is not ik_a
+    assert set(vars(solver)) == {"options"}
+    a.model.jnt_range[a.joint_ids[0], 0] -= 0.01  # the live model changes: rebuilt
+    assert a.sync() and solver.upper_body(a) is not ik_a
     goals = _goals()
     solver.prepare_effectors(goals)
     ik = solver.upper_body_for(goals)
@@ -794,6 +826,147 @@ def test_caches_are_rebuilt_only_for_other_chains_or_goals():
     moved = [g._replace(q0=g.chain.q_home + 0.01) for g in goals]
     assert solver.upper_body_for(moved) is ik  # warm starts are inputs, not state
     assert solver.upper_body_for(_goals(("reach", "reach", "reach"))) is not ik
+
+
+def test_one_solver_object_shared_by_two_threads_gives_the_serial_answers():
+    """Two threads, each with its own Chain (its own robot state), ONE MinkSolver
+    object, 100 position targets each (FK of seeded random in-range joints): every
+    answer equals a serial solve of the same target from the same start on a fresh
+    chain (0 wrong)."""
+    solver = make_solver("mink")
+    n = 100
+    cases = []
+    for seed in (31, 32):
+        rng = np.random.default_rng(seed)
+        gen = Chain()
+        cases.append([(gen.fk(gen.random_q(rng))[0], gen.random_q(rng)) for _ in range(n)])
+    answers: list[list] = [[], []]
+    errors: list[BaseException] = []
+    barrier = threading.Barrier(2)
+
+    def work(k: int) -> None:
+        try:
+            chain = Chain()
+            barrier.wait()
+            for p, q0 in cases[k]:
+                res = solver.solve(chain, p, q0)
+                answers[k].append((res.q.copy(), res.converged, res.iterations))
+        except BaseException as exc:  # reported below, not lost in the thread
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-4)  # switch threads often: races show up more
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert not errors, errors
+    assert set(vars(solver)) == {"options"}  # nothing a solve changes lives on the solver
+    wrong = 0
+    bundled = Chain().model  # loaded once; each reference chain gets a fresh robot state
+    for k in range(2):
+        assert len(answers[k]) == n
+        for (p, q0), (q, converged, iterations) in zip(cases[k], answers[k], strict=True):
+            ref = make_solver("mink").solve(Chain(bundled), p, q0)
+            same = np.array_equal(q, ref.q) and converged == ref.converged
+            wrong += int(not (same and iterations == ref.iterations))
+    assert wrong == 0
+
+
+def test_solve_effectors_claims_the_robot():
+    """A goal's robot in use by another solve is refused (one thread per robot state)."""
+    goals = _goals()
+    goals[0].chain.claim()
+    try:
+        with pytest.raises(ChainError, match="in use by another thread"):
+            MinkSolver().solve_effectors(goals)
+    finally:
+        goals[0].chain.release()
+    assert MinkSolver().solve_effectors(goals)[0].converged  # released after an error too
+
+
+# ---------------------------------------------------------------------------- options
+def test_one_options_system():
+    """UpperBodyIK takes MinkOptions (or its fields): the options it runs with are the
+    solver's, defaults included, and fields override an options object."""
+    ik = _upper_body()
+    assert ik.options == MinkOptions(collision_pairs=PAIRS)
+    opts = MinkOptions(max_velocity=2.0, lm_damping=0.01)
+    ik = _upper_body(options=opts, collision_pairs=None)
+    assert ik.options == MinkOptions(max_velocity=2.0, lm_damping=0.01)
+    ik = _upper_body(options=opts, max_velocity=3.0)
+    assert ik.options.max_velocity == 3.0 and ik.options.lm_damping == 0.01
+    solver = MinkSolver(max_step=0.1, collision_pairs=PAIRS)
+    assert solver.upper_body(Chain()).options is solver.options
+    assert hash(solver.options) == hash(MinkOptions(max_step=0.1, collision_pairs=PAIRS))
+    with pytest.raises(SolverError, match="'max_velocity' of solver 'mink' must be .*> 0"):
+        MinkOptions(max_velocity=0.0)
+
+
+def test_collision_pairs_option_shapes():
+    """Pairs are normalised to tuples (a group may be one name); a bad shape names the
+    index inside collision_pairs; 'collisions' points to its replacement."""
+    opts = MinkOptions.parse("mink", {"collision_pairs": [["a", ["b", "c"]]]})
+    assert opts.collision_pairs == ((("a",), ("b", "c")),)
+    assert MinkOptions(collision_pairs=None).collision_pairs == ()
+    for bad, where in [
+        ("a", ""),
+        ([["a"]], "[0]"),
+        ([["a", []]], "[0][1]"),
+        ([[["a", 3], "b"]], "[0][0][1]"),
+    ]:
+        with pytest.raises(SolverError, match=rf"'collision_pairs{re_escape(where)}'"):
+            make_solver("mink", collision_pairs=bad)
+    with pytest.raises(SolverError, match="replaced by 'collision_pairs'"):
+        make_solver("mink", collisions=True)
+
+
+def re_escape(text: str) -> str:
+    import re
+
+    return re.escape(text)
+
+
+def test_removed_names_are_deprecated_aliases():
+    """DEFAULT_HANDS, DEFAULT_GAZE, DEFAULT_COLLISION_PAIRS (package) and DEFAULTS,
+    check_options (upper_body) still resolve, with a DeprecationWarning; the old pairs
+    are the bundled scene's."""
+    from humanoid_ik.solvers.mink import upper_body
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert mink_solver.DEFAULT_HANDS == HANDS
+        assert mink_solver.DEFAULT_GAZE == GAZE
+        assert MinkOptions(collision_pairs=mink_solver.DEFAULT_COLLISION_PAIRS).collision_pairs == (
+            PAIRS
+        )
+        assert upper_body.DEFAULTS["max_velocity"] == MinkOptions().max_velocity
+        assert upper_body.check_options({"max_step": 0.1})["max_step"] == 0.1
+        assert upper_body.DEFAULT_GAZE == GAZE
+    assert len(caught) == 6
+    assert all(w.filename == __file__ for w in caught)  # points at the line that used it
+    assert all(issubclass(w.category, DeprecationWarning) for w in caught)
+    with pytest.raises(AttributeError):
+        mink_solver.DEFAULT_POSTURE  # noqa: B018
+
+
+def test_no_robot_names_in_the_solver():
+    """No module of the mink solver holds a name of the bundled humanoid as a value (a
+    default): only the deprecated aliases (deprecated.py) do."""
+    root = Path(mink_solver.__file__).parent
+    bundled = {*HANDS, GAZE, *(n for pair in PAIRS for group in pair for n in group)}
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        if path == root / "deprecated.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and node.value in bundled:
+                found.append(f"{path.name}:{node.lineno} {node.value!r}")
+    assert found == []
 
 
 @pytest.mark.parametrize(
@@ -818,11 +991,11 @@ def test_unknown_geom_names_are_named_with_the_valid_ones():
     """Unknown collision geoms: the error names each and lists the model's geoms."""
     pairs = [(["right_hand_collision", "palm_geom"], ["torso_collision", "belly"])]
     with pytest.raises(NameNotFoundError) as err:
-        UpperBodyIK(collision_pairs=pairs)
+        _upper_body(collision_pairs=pairs)
     msg = str(err.value)
     assert "'palm_geom'" in msg and "'belly'" in msg and "torso_collision" in msg
-    with pytest.raises(ChainError, match="two groups"):
-        UpperBodyIK(collision_pairs=[(["right_hand_collision"],)])
+    with pytest.raises(SolverError, match=r"'collision_pairs\[0\]' .* two groups"):
+        _upper_body(collision_pairs=[(["right_hand_collision"],)])
 
 
 def test_a_model_with_other_names_works_through_options():
@@ -833,12 +1006,16 @@ def test_a_model_with_other_names_works_through_options():
     p, _ = chain.fk(chain.random_q(np.random.default_rng(1)))
     assert ik.solve({"tip": p}).converged
     with pytest.raises(NameNotFoundError, match="site 'right_palm_site' not in model"):
-        UpperBodyIK(m)
+        UpperBodyIK(m, hands=HANDS)
+    with pytest.raises(TypeError, match="hands"):
+        UpperBodyIK(m)  # type: ignore[call-arg]  # no default effectors
+    with pytest.raises(ChainError, match="needs a model"):
+        UpperBodyIK(hands=("tip",))  # no default model either
 
 
 def test_bad_targets_and_steps_are_refused():
     """Unknown effector, an orientation for the gaze, a bad dt or qpos: clear errors."""
-    ik = UpperBodyIK()
+    ik = _upper_body()
     with pytest.raises(TargetError, match="effectors: right_palm_site, left_palm_site"):
         ik.step({"right_hand": [0.3, -0.3, 1.1]}, 0.01)
     with pytest.raises(TargetError, match="looks at a point"):
@@ -853,19 +1030,21 @@ def test_bad_targets_and_steps_are_refused():
 def test_bad_options_are_refused():
     """Unknown options, non-numbers, out-of-range gains and missing QP solvers."""
     with pytest.raises(SolverError, match="unknown"):
-        UpperBodyIK(speed=1.0)
+        _upper_body(speed=1.0)
     with pytest.raises(SolverError, match="must be a number"):
-        UpperBodyIK(max_velocity="fast")
-    with pytest.raises(SolverError, match=r"in \(0, 1\]"):
-        UpperBodyIK(range_gain=1.5)
+        _upper_body(max_velocity="fast")
+    with pytest.raises(SolverError, match=r"'range_gain' .* <= 1, got 1.5"):
+        _upper_body(range_gain=1.5)
+    with pytest.raises(SolverError, match=r"'range_gain' .* > 0 and <= 1, got 0"):
+        _upper_body(range_gain=0)
     with pytest.raises(SolverError, match="> 0"):
-        UpperBodyIK(max_step=0.0)
+        _upper_body(max_step=0.0)
     with pytest.raises(SolverError, match=">= 0"):
-        UpperBodyIK(posture_cost=-1.0)
-    with pytest.raises(SolverError, match="must be a name"):
-        UpperBodyIK(qp_solver=3)
+        _upper_body(posture_cost=-1.0)
+    with pytest.raises(SolverError, match="must be the name of a qpsolvers backend"):
+        _upper_body(qp_solver=3)
     with pytest.raises(SolverError, match="QP solvers: .*daqp"):
-        UpperBodyIK(qp_solver="no_such_qp")
+        _upper_body(qp_solver="no_such_qp")
     with pytest.raises(SolverError, match="QP solvers"):
         MinkSolver(qp_solver="no_such_qp").solve(Chain(), [0.3, -0.3, 1.1])
 
@@ -875,10 +1054,12 @@ def test_bad_chains_are_refused():
     with pytest.raises(ChainError, match="another MjModel"):
         UpperBodyIK(Chain().model, hands=(Chain(),))
     with pytest.raises(ChainError, match="given twice"):
-        UpperBodyIK(hands=("right_palm_site", "right_palm_site"))
+        _upper_body(hands=("right_palm_site", "right_palm_site"))
     m = Chain().model
     with pytest.raises(ChainError, match="gaze effector must be a site"):
-        UpperBodyIK(m, gaze=Chain(m, body="head_link"))
+        UpperBodyIK(m, hands=(), gaze=Chain(m, body="head_link"))
+    with pytest.raises(ChainError, match="at least one effector"):
+        UpperBodyIK(m, hands=())
 
 
 def test_task_parts_refuse_bad_input():

@@ -327,6 +327,93 @@ def test_bad_scene_file_names_file_key_and_expectation(tmp_path, old, new, messa
     assert msg.startswith(f"{display_path(p)}: {message}"), msg
 
 
+MINK = '[solver]\nname = "mink"\noptions = { collision_pairs = %s }'
+"""GOOD's solver table made mink with these collision pairs (TOML)."""
+_DLS = '[solver]\nname = "dls"\noptions = { restarts = 0 }'
+
+
+@pytest.mark.parametrize(
+    ("pairs", "message"),
+    [
+        (
+            '[[["right_hand_collision"], ["torso_colision"]]]',
+            "solver.options.collision_pairs[0][1][0]: expected a geom of the model (",
+        ),
+        (
+            '[[["right_hand_collision"], "belly"]]',
+            "solver.options.collision_pairs[0][1]: expected a geom of the model (",
+        ),
+        (
+            '[["right_hand_collision"]]',
+            "solver.options.collision_pairs[0]: expected two groups of geom names "
+            "[[names], [names]], got ['right_hand_collision']",
+        ),
+        (
+            '[[["right_hand_collision", 3], ["torso_collision"]]]',
+            "solver.options.collision_pairs[0][0][1]: expected a geom name, got 3",
+        ),
+        ('"all"', "solver.options.collision_pairs: expected a list of pairs of geom-name"),
+    ],
+    ids=["geom_in_list", "geom_alone", "one_group", "not_a_name", "not_a_list"],
+)
+def test_bad_collision_pairs_name_the_key_the_value_and_the_choices(tmp_path, pairs, message):
+    """collision_pairs (mink's solver options): a wrong geom name or shape is one line
+    naming the key path down to the element, the bad value and, for a name, the model's
+    geoms."""
+    p = write(tmp_path, GOOD.replace(_DLS, MINK % pairs, 1))
+    msg = error_of(p)
+    assert msg.startswith(f"{display_path(p)}: {message}"), msg
+    if "geom of the model" in message:
+        bad = "torso_colision" if "torso_colision" in pairs else "belly"
+        assert msg.endswith(f"), got {bad!r}") and "head_collision, " in msg, msg
+
+
+def test_collision_pairs_of_an_effector_solver_are_checked(tmp_path):
+    """An effector's own mink solver: its pairs are checked under its key."""
+    pairs = '[["right_hand_collision", "belly"]]'
+    own = f'solver = {{ name = "mink", options = {{ collision_pairs = {pairs} }} }}'
+    p = write(tmp_path, GOOD.replace('target = "ball"', f'target = "ball"\n{own}', 1))
+    msg = error_of(p)
+    assert msg.startswith(
+        f"{display_path(p)}: effectors[0].solver.options.collision_pairs[0][1]: expected a "
+        "geom of the model ("
+    ), msg
+    assert msg.endswith("), got 'belly'")
+
+
+def test_collisions_true_points_to_collision_pairs(tmp_path):
+    """The removed collisions = true says what replaced it."""
+    text = GOOD.replace(_DLS, '[solver]\nname = "mink"\noptions = { collisions = true }', 1)
+    msg = error_of(write(tmp_path, text))
+    assert "solver.options: option 'collisions' of solver 'mink' was replaced by " in msg
+
+
+def test_bundled_mink_scene_names_its_collision_pairs():
+    """upper_body_mink keeps the humanoid's forearms and hands off torso, chest and head
+    and the hands apart: its solver options name those pairs, the scene loads, and the
+    solver keeps 13 geom pairs."""
+    from humanoid_ik.solvers.mink import MinkOptions
+
+    scene = load_scene(bundled_scenes_dir() / "upper_body_mink.toml")
+    assert scene.solver.name == "mink"
+    pairs = MinkOptions(collision_pairs=scene.solver.options["collision_pairs"]).collision_pairs
+    body = ("torso_collision", "chest_collision", "head_collision")
+    assert pairs == (
+        (("right_forearm_collision", "right_hand_collision"), body),
+        (("left_forearm_collision", "left_hand_collision"), body),
+        (("right_hand_collision",), ("left_hand_collision",)),
+    )
+    from humanoid_ik.core.types import EffectorGoal
+
+    chains = check_scene(scene)
+    goals = [
+        EffectorGoal(c, scene.target(e.target).at(0.0), c.q_home, e.task)
+        for c, e in zip(chains, scene.effectors, strict=True)
+    ]
+    limit = scene.solver.make().upper_body_for(goals).collision_limit
+    assert limit is not None and len(limit.geom_id_pairs) == 13
+
+
 def test_pose_target_rejects_position_only_solver(tmp_path):
     """A pose target with a position-only solver fails at the solver key with the reason."""
     text = (

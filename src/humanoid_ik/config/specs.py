@@ -76,10 +76,17 @@ class SolverSpec:
         return make_solver(self.name, **dict(self.options))
 
     def label(self) -> str:
-        """``name`` or ``name(key=value, ...)``."""
+        """``name`` or ``name(key=value, ...)``; a list of more than three items is shown
+        by its length (``collision_pairs=<13 items>``)."""
         if not self.options:
             return self.name
-        opts = ", ".join(f"{k}={show_value(v)}" for k, v in self.options.items())
+
+        def show(v: Any) -> str:
+            if isinstance(v, (list, tuple)) and len(v) > 3:
+                return f"<{len(v)} items>"
+            return show_value(v)
+
+        opts = ", ".join(f"{k}={show(v)}" for k, v in self.options.items())
         return f"{self.name}({opts})"
 
 
@@ -205,7 +212,7 @@ class Scene:
     def target_points(self, samples: int = 32) -> NDArray[np.float64]:
         """Each target's position at ``samples`` times spread over the run, stacked
         ``(len(targets) * samples, 3)`` [m]: what a stage's cameras frame besides the
-        model (:func:`humanoid_ik.core.models.staged_model`)."""
+        model (:func:`humanoid_ik.outputs.stage.staged_model`)."""
         last = (self.n_frames - 1) / self.fps
         times = np.linspace(0.0, last, max(1, samples))
         pts = [t.motion.position(float(x)) for t in self.targets for x in times]

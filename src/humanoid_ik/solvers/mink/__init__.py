@@ -2,10 +2,12 @@
 
 Laid out like mink itself:
 
-- :mod:`~humanoid_ik.solvers.mink.solver`: :class:`MinkSolver` (``"mink"``) and its
-  options :class:`MinkOptions`;
-- :mod:`~humanoid_ik.solvers.mink.upper_body`: :class:`UpperBodyIK`, both hands and the
-  gaze solved jointly, one QP per step; its result :class:`UpperBodyResult`
+- :mod:`~humanoid_ik.solvers.mink.solver`: :class:`MinkSolver` (``"mink"``);
+- :mod:`~humanoid_ik.solvers.mink.options`: its options :class:`MinkOptions`, the one
+  place the mink defaults and bounds are written;
+- :mod:`~humanoid_ik.solvers.mink.upper_body`: :class:`UpperBodyIK`, hands and a gaze
+  solved jointly, one QP per step, on any model (the caller names the effectors and the
+  collision pairs); its result :class:`UpperBodyResult`
   (:mod:`~humanoid_ik.solvers.mink.result`);
 - :mod:`~humanoid_ik.solvers.mink.problem`: the QP of one set of active effectors and
   one step of it;
@@ -19,6 +21,12 @@ Laid out like mink itself:
 ``import humanoid_ik`` does not import mink (about 0.2 s with qpsolvers and SciPy): the
 names of this package that need it (the tasks and limits) are loaded on first access,
 and :class:`UpperBodyIK` imports mink when the first one is built.
+
+Deprecated: ``DEFAULT_HANDS``, ``DEFAULT_GAZE`` and ``DEFAULT_COLLISION_PAIRS`` (the
+bundled humanoid's effector and geom names, once the defaults of :class:`UpperBodyIK`)
+still resolve, with a ``DeprecationWarning`` (:mod:`~humanoid_ik.solvers.mink.deprecated`);
+nothing in the package uses them. Pass the names instead (the bundled scenes name their
+collision pairs in the scene file).
 """
 
 from __future__ import annotations
@@ -26,19 +34,12 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from humanoid_ik.solvers.mink.options import MinkOptions
 from humanoid_ik.solvers.mink.result import UpperBodyResult
-from humanoid_ik.solvers.mink.solver import MinkOptions, MinkSolver
-from humanoid_ik.solvers.mink.upper_body import (
-    DEFAULT_COLLISION_PAIRS,
-    DEFAULT_GAZE,
-    DEFAULT_HANDS,
-    UpperBodyIK,
-)
+from humanoid_ik.solvers.mink.solver import MinkSolver
+from humanoid_ik.solvers.mink.upper_body import UpperBodyIK
 
 __all__ = [
-    "DEFAULT_COLLISION_PAIRS",
-    "DEFAULT_GAZE",
-    "DEFAULT_HANDS",
     "BufferedTask",
     "CollisionLimit",
     "GazeTask",
@@ -65,7 +66,9 @@ _LAZY = {
 def __getattr__(name: str) -> Any:
     module = _LAZY.get(name)
     if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        from humanoid_ik.solvers.mink.deprecated import lookup
+
+        return lookup(__name__, name)
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value

@@ -34,9 +34,8 @@ first use.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import daqp
 import mink
@@ -46,6 +45,7 @@ import qpsolvers
 from numpy.typing import NDArray
 
 from humanoid_ik.solvers.mink.limits import CollisionLimit, JointRangeLimit
+from humanoid_ik.solvers.mink.options import MinkOptions
 
 __all__ = ["HALVINGS", "ActiveKey", "Problem", "QPStep", "build_problem"]
 
@@ -117,15 +117,15 @@ class QPStep:
 
     Args:
         configuration: the configuration stepped (its ``qpos`` is changed in place).
-        options: ``damping``, ``qp_solver``, ``max_velocity`` [rad/s] and
-            ``min_distance`` [m] (see ``UpperBodyIK``); read at every step.
+        options: the solver's options; ``damping``, ``qp_solver``, ``max_velocity``
+            [rad/s] and ``min_distance`` [m] are read at every step.
         collision: the collision limit checked after each step, or ``None``.
     """
 
     def __init__(
         self,
         configuration: mink.Configuration,
-        options: Mapping[str, Any],
+        options: MinkOptions,
         collision: CollisionLimit | None,
     ):
         self.configuration = configuration
@@ -157,7 +157,7 @@ class QPStep:
         if x is None:
             return False
         self.dq[prob.dof_adr] = x
-        vmax = o["max_velocity"] * dt
+        vmax = o.max_velocity * dt
         step = np.clip(x, -vmax, vmax)
         q_new = q_act + step
         np.clip(q_new, prob.lower, prob.upper, out=q_new)
@@ -171,17 +171,17 @@ class QPStep:
         """The QP's minimiser over the active dofs ``(k,)`` with the frozen ones at 0, or
         ``None`` when the solver finds none."""
         o, dofs = self.options, prob.dof_adr
-        qp = mink.build_ik(self.configuration, prob.tasks, dt, o["damping"], prob.limits)
+        qp = mink.build_ik(self.configuration, prob.tasks, dt, o.damping, prob.limits)
         H = qp.P[np.ix_(dofs, dofs)]
         c = qp.q[dofs]
         if qp.G is None or qp.h is None:
             G, h = np.zeros((0, dofs.size)), np.zeros(0)
         else:
             G, h = qp.G[:, dofs], qp.h
-        if o["qp_solver"] != "daqp":
+        if o.qp_solver != "daqp":
             rows = h.size > 0
             x = qpsolvers.solve_qp(
-                H, c, G if rows else None, h if rows else None, solver=o["qp_solver"]
+                H, c, G if rows else None, h if rows else None, solver=o.qp_solver
             )
             return None if x is None else np.asarray(x, dtype=np.float64)
         x, _, exitflag, _ = daqp.solve(
@@ -201,7 +201,7 @@ class QPStep:
         coll, cfg = self.collision, self.configuration
         assert coll is not None
         qpos, dist = cfg.data.qpos, self._dist
-        floor = np.minimum(coll.last_distances, 0.5 * self.options["min_distance"])
+        floor = np.minimum(coll.last_distances, 0.5 * self.options.min_distance)
         floor -= 1e-9
         for _ in range(HALVINGS):
             if np.all(coll.distances(cfg.data, dist) >= floor):

@@ -1,14 +1,21 @@
-"""Both hands and the gaze of a humanoid solved jointly by mink, one QP per step.
+"""Several hands and a gaze solved jointly by mink, one QP per step, on any model.
 
 Tasks: a ``mink.FrameTask`` per hand with a pose target, a
 :class:`~humanoid_ik.solvers.mink.tasks.PositionTask` per hand with a position target, a
-:class:`~humanoid_ik.solvers.mink.tasks.GazeTask` for the head, and a
+:class:`~humanoid_ik.solvers.mink.tasks.GazeTask` for the gaze, and a
 ``mink.PostureTask`` toward the ``home`` keyframe. The active chains are those of the
 effectors that have a target in the call; every other joint is frozen (the QP of
-:mod:`humanoid_ik.solvers.mink.problem`). Both hands and the gaze are solved jointly in
-one QP per step. Per frame of a scene::
+:mod:`humanoid_ik.solvers.mink.problem`). All of them are solved jointly in one QP per
+step. Nothing here knows a particular robot: the caller names the hands, the gaze and
+the collision pairs with its model's names. Per frame of a scene (the bundled
+humanoid's names here)::
 
-    ik = UpperBodyIK(model)             # once (the scene's MjModel)
+    ik = UpperBodyIK(                   # once (the scene's MjModel)
+        model,
+        hands=("right_palm_site", "left_palm_site"),
+        gaze="gaze_site",
+        collision_pairs=pairs,          # e.g. the [solver] options of the scene file
+    )
     ik.load(data)                       # once, start from the scene's qpos
     res = ik.step(                      # every frame, dt = frame time [s]
         {"right_palm_site": Target(p_r, quat_r), "left_palm_site": p_l,
@@ -21,6 +28,9 @@ one QP per step. Per frame of a scene::
 ``qpos`` and an ``IKResult`` per target (errors measured with MuJoCo FK after the
 step). ``ik.solve(targets)`` iterates steps to convergence instead.
 
+The options are a :class:`~humanoid_ik.solvers.mink.options.MinkOptions` (the one place
+their defaults and bounds are written), given as ``options=`` or as its fields.
+
 mink (with qpsolvers and SciPy) takes about 0.2 s to import, so this module does not
 import it: the first :class:`UpperBodyIK` built does.
 """
@@ -30,7 +40,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -38,9 +48,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
-from humanoid_ik.core.models import home_qpos, load_model
+from humanoid_ik.core.models import home_qpos
+from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import ChainError, NameNotFoundError, SolverError, TargetError, choices
+from humanoid_ik.solvers.iterate import Stall, pose_cost
+from humanoid_ik.solvers.mink.options import NAME, CollisionPairs, MinkOptions
 from humanoid_ik.solvers.mink.result import UpperBodyResult
 
 if TYPE_CHECKING:
@@ -50,150 +63,77 @@ if TYPE_CHECKING:
     from humanoid_ik.solvers.mink.problem import ActiveKey, Problem
     from humanoid_ik.solvers.mink.tasks import GazeTask, PositionTask
 
-__all__ = [
-    "DEFAULTS",
-    "DEFAULT_COLLISION_PAIRS",
-    "DEFAULT_GAZE",
-    "DEFAULT_HANDS",
-    "NAME",
-    "UpperBodyIK",
-    "check_options",
-]
-
-NAME = "mink"
-"""The solver name results carry."""
-DEFAULT_HANDS = ("right_palm_site", "left_palm_site")
-DEFAULT_GAZE = "gaze_site"
-_BODY = ("torso_collision", "chest_collision", "head_collision")
-DEFAULT_COLLISION_PAIRS: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
-    (("right_forearm_collision", "right_hand_collision"), _BODY),
-    (("left_forearm_collision", "left_hand_collision"), _BODY),
-    (("right_hand_collision",), ("left_hand_collision",)),
-)
-"""Each forearm and hand against torso, chest and head, and hand against hand."""
-
-DEFAULTS: dict[str, float | int] = {
-    "position_cost": 1.0,
-    "orientation_cost": 0.5,
-    "gaze_cost": 1.0,
-    "posture_cost": 1e-3,
-    "posture_gain": 0.1,
-    "damping": 1e-12,
-    "lm_damping": 0.0,
-    "max_velocity": 4.0,
-    "max_step": 0.2,
-    "range_gain": 0.95,
-    "collision_gain": 0.85,
-    "min_distance": 0.01,
-    "detection_distance": 0.1,
-    "tol": 1e-4,
-    "rot_tol": 1e-3,
-    "max_iterations": 200,
-    "stall_window": 10,
-}
-"""The numeric options of :class:`UpperBodyIK` and their defaults."""
-_POSITIVE = frozenset(
-    {"max_velocity", "max_step", "range_gain", "collision_gain", "detection_distance"}
-)
-_AT_MOST_ONE = frozenset({"range_gain", "collision_gain", "posture_gain"})
+__all__ = ["NAME", "UpperBodyIK"]
 
 
-def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
-    """:data:`DEFAULTS` and ``qp_solver="daqp"`` overridden by ``options``.
+def __getattr__(name: str) -> Any:
+    """The deprecated ``DEFAULTS``, ``check_options`` and ``DEFAULT_*`` names
+    (:mod:`~humanoid_ik.solvers.mink.deprecated`)."""
+    from humanoid_ik.solvers.mink.deprecated import lookup
 
-    Every number must be finite and >= 0; ``max_velocity``, ``max_step``,
-    ``detection_distance`` > 0; ``range_gain``, ``collision_gain`` in (0, 1];
-    ``posture_gain`` in [0, 1]. Integer options are made ``int``.
-
-    Raises:
-        SolverError: an unknown name (the valid ones are listed) or a bad value.
-    """
-    out: dict[str, Any] = {**DEFAULTS, "qp_solver": "daqp"}
-    for key, value in options.items():
-        if key not in out:
-            raise SolverError(
-                f"option '{key}' unknown for the mink solver; options: {choices(out)}"
-            )
-        if key == "qp_solver":
-            if not isinstance(value, str):
-                raise SolverError(f"option 'qp_solver' must be a name, got {value!r}")
-            out[key] = value
-            continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SolverError(f"option '{key}' must be a number, got {value!r}")
-        v = float(value)
-        positive, at_most_one = key in _POSITIVE, key in _AT_MOST_ONE
-        if not math.isfinite(v) or v < 0 or (positive and v == 0) or (at_most_one and v > 1):
-            rule = "in (0, 1]" if at_most_one else ("> 0" if positive else ">= 0")
-            raise SolverError(f"option '{key}' must be a finite number {rule}, got {value!r}")
-        out[key] = int(v) if isinstance(DEFAULTS[key], int) else v
-    return out
+    return lookup(__name__, name)
 
 
 class UpperBodyIK:
-    """Both hands and the gaze of a humanoid solved jointly by mink, one QP per step.
+    """Hands and a gaze of one model solved jointly by mink, one QP per step.
 
     Args:
-        model: an ``MjModel``, an MJCF path, or ``None`` for the bundled humanoid.
-        hands: hand effectors: site names (chain by the path rule) or
-            :class:`~humanoid_ik.core.chain.Chain` objects on the same model (custom
-            joints or a body end effector).
+        model: the :class:`~humanoid_ik.core.robot.Robot`, ``MjModel`` or MJCF/URDF path
+            the effectors are on; ``None`` takes the model of the :class:`Chain` objects
+            among ``hands`` and ``gaze`` (then at least one must be a chain).
+        hands: the hand effectors (at least one, unless there is a gaze): site names
+            (chain by the path rule) or :class:`~humanoid_ik.core.chain.Chain` objects
+            on the same model (custom joints or a body end effector).
         gaze: the gaze effector (a site name or a chain), or ``None`` for no gaze.
-        collision_pairs: pairs of geom-name groups kept apart (every geom of a group
-            against every geom of the other); ``()`` or ``None`` for none. Default:
-            :data:`DEFAULT_COLLISION_PAIRS`.
         gaze_axis: the gaze site's forward axis, the one aimed at the gaze target:
-            ``"x"``, ``"y"``, ``"z"`` or ``(3,)`` in the site frame.
-        **options: numbers overriding :data:`DEFAULTS`, and ``qp_solver`` (a qpsolvers
-            backend name, default ``daqp``):
-
-            - ``position_cost`` [1/m], ``orientation_cost`` [1/rad], ``gaze_cost``,
-              ``posture_cost`` [1/rad]: task weights.
-            - ``posture_gain``: fraction of the way back to ``home`` the posture task asks
-              for per step (below 1 so its pull in the null space of the hand tasks does
-              not overshoot and oscillate).
-            - ``damping``: Levenberg-Marquardt damping on ``dq`` (all tasks);
-              ``lm_damping``: error-scaled damping of the hand tasks (mink).
-            - ``max_velocity`` [rad/s]: joint velocity limit of :meth:`step`.
-            - ``max_step`` [rad]: largest joint change per iteration of :meth:`solve`.
-            - ``range_gain``: fraction of the distance to a range end one step may use.
-            - ``collision_gain``, ``min_distance`` [m], ``detection_distance`` [m]:
-              collision pairs may close ``collision_gain`` of their margin over
-              ``min_distance`` per step; pairs farther than ``detection_distance`` add
-              no row.
-            - ``tol`` [m], ``rot_tol`` [rad], ``max_iterations``, ``stall_window``:
-              convergence of :meth:`solve` (no 1 % progress in ``stall_window``
-              iterations stops it).
+            ``"x"``, ``"y"``, ``"z"`` or ``(3,)`` in the site frame; ``None`` (the
+            default) for the options' ``forward_axis``.
+        options: a :class:`~humanoid_ik.solvers.mink.options.MinkOptions` (default: its
+            defaults).
+        **fields: :class:`MinkOptions` fields overriding ``options``, checked as
+            ``make_solver("mink", ...)`` checks them, e.g. ``collision_pairs=[(group,
+            group), ...]`` (pairs of geom-name groups kept apart, every geom of a group
+            against every geom of the other; ``()``, the default, or ``None`` for none),
+            ``max_velocity=3.0``. Used here: the task costs and gains, ``damping``,
+            ``lm_damping``, ``range_gain``, the collision options, ``max_velocity``
+            (:meth:`step`), ``max_step``, ``tol``, ``rot_tol``, ``max_iterations``,
+            ``stall_window`` (:meth:`solve`) and ``qp_solver``; ``restarts``, ``seed``
+            and ``dt`` are the solver's (:class:`~humanoid_ik.solvers.mink.MinkSolver`).
 
     State: the object owns a ``mink.Configuration`` (its own ``MjData``), the tasks, the
     limits and, per set of active effectors, the :class:`~humanoid_ik.solvers.mink.problem.Problem`
     built on its first use (or by :meth:`prepare`) and kept for the object's life; all of
-    them depend only on the model, the effectors and the options, which are fixed.
+    them depend only on the model, the effectors and the options, which are fixed. One
+    thread at a time: give each thread its own (``MinkSolver`` keeps one per robot state).
 
     Raises:
         ModelError, NameNotFoundError: a bad model path, site or geom name (the message
             lists the valid names).
-        ChainError: a chain on another model, an effector given twice, a body as gaze.
+        ChainError: no model, no effector, a chain on another model, an effector given
+            twice, a body as gaze.
         SolverError: a bad option.
     """
 
-    defaults: ClassVar[Mapping[str, float | int]] = DEFAULTS
-
     def __init__(
         self,
-        model: mujoco.MjModel | str | os.PathLike[str] | None = None,
+        model: Robot | mujoco.MjModel | str | os.PathLike[str] | None = None,
         *,
-        hands: Sequence[str | Chain] = DEFAULT_HANDS,
-        gaze: str | Chain | None = DEFAULT_GAZE,
-        collision_pairs: Sequence[tuple[Sequence[str], Sequence[str]]]
-        | None = DEFAULT_COLLISION_PAIRS,
-        gaze_axis: str | ArrayLike = (1.0, 0.0, 0.0),
-        **options: Any,
+        hands: Sequence[str | Chain],
+        gaze: str | Chain | None = None,
+        gaze_axis: str | ArrayLike | None = None,
+        options: MinkOptions | None = None,
+        **fields: Any,
     ):
-        self.options = check_options(options)
-        """The options by name (:data:`DEFAULTS` and ``qp_solver``)."""
-        given = [c for c in (*hands, gaze) if isinstance(c, Chain)]
-        self.model = given[0].model if model is None and given else load_model(model)
+        if options is None:
+            options = MinkOptions.parse(NAME, fields)
+        elif fields:
+            options = MinkOptions.parse(NAME, {**options.as_dict(), **fields})
+        self.options: MinkOptions = options
+        """The options (read-only)."""
+        if isinstance(hands, (str, Chain)):
+            hands = (hands,)
+        self._robot = self._robot_of(model, [*hands, gaze])
+        self.model = self._robot.model
         self._hand_chains = [self._chain(h) for h in hands]
         self._gaze_chain = None if gaze is None else self._chain(gaze)
         if self._gaze_chain is not None and self._gaze_chain.ee_kind != "site":
@@ -201,13 +141,15 @@ class UpperBodyIK:
                 f"the gaze effector must be a site, got body '{self._gaze_chain.ee_name}'"
             )
         chains = [*self._hand_chains] + ([self._gaze_chain] if self._gaze_chain else [])
+        if not chains:
+            raise ChainError("UpperBodyIK needs at least one effector (hands or a gaze)")
         names = [c.ee_name for c in chains]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ChainError(f"effector '{dup[0]}' is given twice; effectors: {', '.join(names)}")
         self.chains: dict[str, Chain] = {c.ee_name: c for c in chains}
         """The effectors' chains by effector name (hands first, then the gaze)."""
-        pairs = () if collision_pairs is None else tuple(collision_pairs)
+        pairs = self.options.collision_pairs
         self._check_geoms(pairs)
 
         import mink  # the first mink object: import mink and our mink modules now
@@ -215,20 +157,39 @@ class UpperBodyIK:
 
         from humanoid_ik.solvers.mink.problem import QPStep
 
-        if self.options["qp_solver"] not in qpsolvers.available_solvers:
+        if self.options.qp_solver not in qpsolvers.available_solvers:
             raise SolverError(
-                f"QP solver '{self.options['qp_solver']}' not installed; QP solvers: "
+                f"QP solver '{self.options.qp_solver}' not installed; QP solvers: "
                 f"{choices(qpsolvers.available_solvers)}"
             )
         self._se3 = mink.SE3
         self.configuration = mink.Configuration(self.model)
         """The ``mink.Configuration`` holding the solver's ``qpos`` and kinematics."""
-        self._build_tasks(gaze_axis)
+        self._build_tasks(self.options.forward_axis if gaze_axis is None else gaze_axis)
         self._build_limits(pairs)
         self._problems: dict[ActiveKey, Problem] = {}
         self._err_buffers = (np.empty(6), np.empty((2, 4)))  # error vector, quaternion scratch
         self._step = QPStep(self.configuration, self.options, self._collision)
         self.reset()
+
+    @staticmethod
+    def _robot_of(
+        model: Robot | mujoco.MjModel | str | os.PathLike[str] | None,
+        effectors: Sequence[str | Chain | None],
+    ) -> Robot:
+        """The robot the effectors named by site are built on: ``model``'s, else the
+        first given chain's."""
+        if isinstance(model, Robot):
+            return model
+        if model is None:
+            given = [c for c in effectors if isinstance(c, Chain)]
+            if not given:
+                raise ChainError(
+                    "UpperBodyIK needs a model (a Robot, an MjModel or a model file) or "
+                    "Chain objects as effectors"
+                )
+            return given[0].robot
+        return Robot(model)
 
     # ------------------------------------------------------------------ set-up
     def _build_tasks(self, gaze_axis: str | ArrayLike) -> None:
@@ -242,41 +203,41 @@ class UpperBodyIK:
             c.ee_name: mink.FrameTask(
                 c.ee_name,
                 c.ee_kind,
-                position_cost=o["position_cost"],
-                orientation_cost=o["orientation_cost"],
-                lm_damping=o["lm_damping"],
+                position_cost=o.position_cost,
+                orientation_cost=o.orientation_cost,
+                lm_damping=o.lm_damping,
             )
             for c in self._hand_chains
         }
         self._position_tasks: dict[str, PositionTask] = {
             c.ee_name: PositionTask(
-                m, c.ee_name, c.ee_kind, cost=o["position_cost"], lm_damping=o["lm_damping"]
+                m, c.ee_name, c.ee_kind, cost=o.position_cost, lm_damping=o.lm_damping
             )
             for c in self._hand_chains
         }
         self._gaze_task: GazeTask | None = None
         if self._gaze_chain is not None:
-            self._gaze_task = GazeTask(m, self._gaze_chain.ee_name, gaze_axis, cost=o["gaze_cost"])
+            self._gaze_task = GazeTask(m, self._gaze_chain.ee_name, gaze_axis, cost=o.gaze_cost)
         self.q_home = self._home()
         """``qpos`` of the ``home`` keyframe (else ``qpos0``), chain joints inside ranges."""
-        self._posture = mink.PostureTask(m, cost=o["posture_cost"], gain=o["posture_gain"])
+        self._posture = mink.PostureTask(m, cost=o.posture_cost, gain=o.posture_gain)
         self._posture.set_target(self.q_home)
 
-    def _build_limits(self, pairs: Sequence[tuple[Sequence[str], Sequence[str]]]) -> None:
+    def _build_limits(self, pairs: CollisionPairs) -> None:
         """The velocity limit of every chain joint and the collision limit (if pairs)."""
         from humanoid_ik.solvers.mink.limits import CollisionLimit, JointVelocityLimit
 
         m, o = self.model, self.options
         all_ids = sorted({int(j) for c in self.chains.values() for j in c.joint_ids})
-        self._velocity = JointVelocityLimit(m, all_ids, o["max_velocity"])
+        self._velocity = JointVelocityLimit(m, all_ids, o.max_velocity)
         self._collision: CollisionLimit | None = None
         if pairs:
             self._collision = CollisionLimit(
                 m,
                 [(list(a), list(b)) for a, b in pairs],
-                gain=o["collision_gain"],
-                minimum_distance_from_collisions=o["min_distance"],
-                collision_detection_distance=o["detection_distance"],
+                gain=o.collision_gain,
+                minimum_distance_from_collisions=o.min_distance,
+                collision_detection_distance=o.detection_distance,
             )
 
     def _chain(self, spec: str | Chain) -> Chain:
@@ -287,16 +248,15 @@ class UpperBodyIK:
                     "chain on the model given to UpperBodyIK"
                 )
             return spec
-        return Chain(self.model, spec)
+        return Chain(self._robot, spec)
 
-    def _check_geoms(self, pairs: Sequence[tuple[Sequence[str], Sequence[str]]]) -> None:
+    def _check_geoms(self, pairs: CollisionPairs) -> None:
+        """Every geom name of ``pairs`` (already of the right shape) is the model's."""
         m = self.model
         unknown: list[str] = []
         for pair in pairs:
-            if len(pair) != 2:
-                raise ChainError(f"collision pair {pair!r} must be two groups of geom names")
             for group in pair:
-                for name in [group] if isinstance(group, str) else group:
+                for name in group:
                     if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) < 0:
                         if name not in unknown:
                             unknown.append(name)
@@ -330,7 +290,7 @@ class UpperBodyIK:
         shared: list[mink.Limit] = [self._velocity]
         if self._collision is not None:
             shared.append(self._collision)
-        prob = build_problem(self.model, key, ids, tasks, shared, self.options["range_gain"])
+        prob = build_problem(self.model, key, ids, tasks, shared, self.options.range_gain)
         self._problems[key] = prob
         return prob
 
@@ -445,8 +405,8 @@ class UpperBodyIK:
     def _within(self, name: str, ep: float, er: float | None) -> bool:
         o = self.options
         if self._gaze_task is not None and name == self._gaze_task.site:
-            return er is not None and er < o["rot_tol"]
-        return ep < o["tol"] and (er is None or er < o["rot_tol"])
+            return er is not None and er < o.rot_tol
+        return ep < o.tol and (er is None or er < o.rot_tol)
 
     def _result(
         self,
@@ -534,25 +494,23 @@ class UpperBodyIK:
         if not order:
             return self._result(parsed, order, 0)
         prob = self._problem(key)
-        dt = o["max_step"] / o["max_velocity"]
-        window = max(2, int(o["stall_window"]))
-        history = np.full(window, math.inf)
-        message = f"no convergence in {o['max_iterations']} iterations"
+        dt = o.max_step / o.max_velocity
+        stalled = Stall(o.stall_window)
+        message = f"no convergence in {o.max_iterations} iterations"
         it = 0
         while True:
             cost, done = 0.0, True
             for name in order:
                 ep, er = self._errors(name, parsed[name])
                 done = done and self._within(name, ep, er)
-                cost += ep + 0.1 * (er or 0.0)
+                cost += pose_cost(ep, er)
             if done:
                 return self._result(parsed, order, it)
-            if it >= o["max_iterations"]:
+            if it >= o.max_iterations:
                 break
-            if it >= window and cost > 0.99 * history[it % window]:
-                message = f"stalled after {it} iterations (no 1 % progress in {window})"
+            if stalled(it, cost):
+                message = f"stalled after {it} iterations (no 1 % progress in {stalled.window})"
                 break
-            history[it % window] = cost
             if not self._step(prob, dt):
                 message = f"the QP solver found no solution at iteration {it + 1}"
                 break
