@@ -16,7 +16,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from humanoid_ik import Chain, load_scene, render_scene, run_scene
+from humanoid_ik import Chain
+from humanoid_ik.config.scene import load_scene
+from humanoid_ik.outputs.render import render_scene
+from humanoid_ik.run.runner import run_scene
 
 SCENE = """\
 name = "wave"

@@ -14,7 +14,8 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from humanoid_ik import Chain, load_scene
+from humanoid_ik import Chain
+from humanoid_ik.config.scene import load_scene
 from humanoid_ik.core.rotations import quat_to_mat
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,10 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from humanoid_ik import inspect_model
 from humanoid_ik.cli import main
 from humanoid_ik.core.models import load_model
-from humanoid_ik.experiments.inspection import range_hints
+from humanoid_ik.experiments.inspection import inspect_model, range_hints
 
 REPO = Path(__file__).resolve().parents[1]
 ARM7 = REPO / "examples" / "urdf_arm" / "arm7.urdf"

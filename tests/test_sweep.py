@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
 import shutil
 import sys
 from pathlib import Path
@@ -23,7 +24,7 @@ from humanoid_ik.experiments.sweep import (
     run_job,
     run_sweep,
 )
-from humanoid_ik.experiments.sweep.executors import PRELOAD
+from humanoid_ik.experiments.sweep.executors import PRELOAD, run_ray
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
@@ -288,6 +289,29 @@ def test_local_pool_and_ray_give_the_same_summary(tmp_path):
     assert _comparable(tmp_path / "local") == _comparable(tmp_path / "ray")
     csv_local = (tmp_path / "local" / "summary.csv").read_text().splitlines()
     assert len(csv_local) == len(sweep.jobs) + 1
+
+
+@pytest.mark.slow
+def test_local_ray_runs_in_a_process_group_of_its_own_and_tags_nothing(tmp_path):
+    """``--ray local`` (no Ray initialised here) runs Ray from a process of its own, in
+    a process group that is not the caller's, and puts nothing into the caller's
+    environment; the summary equals the local pool's."""
+    ray = pytest.importorskip("ray")
+    sweep = load_sweep(_write(tmp_path, TINY.replace("seeds = [0, 1]", "seeds = [0]")))
+    local = run_sweep(sweep, tmp_path / "local", workers=2, plot=False)
+    before = dict(os.environ)
+    seen: list[tuple[dict[str, str], int]] = []
+
+    def on_done(job, rec):
+        seen.append((dict(os.environ), os.getpgrp()))
+
+    assert not ray.is_initialized()
+    run_ray(sweep.jobs[:1], 2, "local", on_done)
+    assert not ray.is_initialized() and dict(os.environ) == before
+    assert seen == [(before, os.getpgrp())]
+    remote = run_sweep(sweep, tmp_path / "ray", workers=2, ray_address="local", plot=False)
+    assert len(local.executed) == len(remote.executed) == len(sweep.jobs)
+    assert _comparable(tmp_path / "local") == _comparable(tmp_path / "ray")
 
 
 def test_cli_sweep_runs_and_errors_are_one_line(tmp_path, capsys):

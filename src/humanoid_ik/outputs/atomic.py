@@ -12,17 +12,22 @@ has the run write every file into a fresh staging folder inside the output folde
 against another run publishing into the same folder. A run that fails or is stopped
 while writing leaves the previous set untouched; the folder never holds a mix of two
 runs' files. Files the manifest does not list (the user's own) are never touched.
+
+Portable: the folder's lock is ``fcntl.flock`` where ``fcntl`` exists (POSIX) and an
+``O_EXCL`` lock file holding the writer's process id elsewhere (:func:`_folder_lock`);
+``/proc`` is read only to tell a zombie from a live process, where it exists.
 """
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import re
 import shutil
 import signal
+import sys
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -50,7 +55,10 @@ _TEMP = re.compile(r"^\.(?P<stem>.+)\.(?P<pid>\d+)\.(?P<tid>\d+)\.tmp(?:dir|\..*
 
 
 def pid_alive(pid: int) -> bool:
-    """True while process ``pid`` runs (a zombie waiting for its parent counts as dead)."""
+    """True while process ``pid`` runs (a zombie waiting for its parent counts as dead
+    where ``/proc`` tells; elsewhere as alive until reaped)."""
+    if sys.platform == "win32":  # os.kill(pid, 0) would end the process there
+        return _pid_alive_windows(pid)
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -60,8 +68,23 @@ def pid_alive(pid: int) -> bool:
     try:
         with open(f"/proc/{pid}/stat", "rb") as f:
             return f.read().rsplit(b")", 1)[1].split()[0] != b"Z"
-    except (OSError, IndexError):
+    except (OSError, IndexError):  # no /proc (macOS, BSD), or the process just ended
         return True
+
+
+def _pid_alive_windows(pid: int) -> bool:
+    if sys.platform != "win32":  # for type checkers: the body is Windows only
+        raise OSError("Windows only")
+    import ctypes
+
+    kernel = ctypes.WinDLL("kernel32", use_last_error=True)
+    handle = kernel.OpenProcess(0x00100000 | 0x1000, False, pid)  # SYNCHRONIZE | QUERY
+    if not handle:
+        return ctypes.get_last_error() == 5  # access denied: it exists
+    try:
+        return bool(kernel.WaitForSingleObject(handle, 0) == 0x102)  # WAIT_TIMEOUT: running
+    finally:
+        kernel.CloseHandle(handle)
 
 
 def _temporary(final: Path, ext: str) -> Path:
@@ -151,8 +174,10 @@ def published(folder: str | os.PathLike) -> list[str]:
 @contextmanager
 def _signals_held() -> Iterator[None]:
     """SIGINT and SIGTERM held back for the block (delivered when it ends); a no-op
-    outside the main thread, where Python runs no signal handler anyway."""
-    if threading.current_thread() is not threading.main_thread():
+    outside the main thread, where Python runs no signal handler anyway, and where
+    signals cannot be blocked (no ``pthread_sigmask``: Windows)."""
+    main = threading.current_thread() is threading.main_thread()
+    if not main or not hasattr(signal, "pthread_sigmask"):
         yield
         return
     held = {signal.SIGINT, signal.SIGTERM}
@@ -170,14 +195,84 @@ def publish(staging: str | os.PathLike, folder: str | os.PathLike) -> list[Path]
     so neither a Ctrl-C nor a concurrent run can leave two runs' files mixed."""
     src, dst = Path(staging), Path(folder)
     names = sorted(p.name for p in src.iterdir() if p.is_file() and not p.name.startswith("."))
-    with _signals_held(), open(dst / _LOCK, "a") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+    with _signals_held(), _folder_lock(dst / _LOCK):
         for old in set(published(dst)) - set(names):
             (dst / old).unlink(missing_ok=True)
         for name in names:
             os.replace(src / name, dst / name)
         write_json(dst / MANIFEST, {"files": names})
     return [dst / n for n in names]
+
+
+LOCK_POLL_S = 0.05
+"""How often a run waiting for another's lock file tries again (no ``fcntl``) [s]."""
+
+
+@contextmanager
+def _folder_lock(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path`` for the block, against other processes and threads.
+
+    ``fcntl.flock`` where ``fcntl`` exists: the system drops it when its holder ends,
+    however it ends. Elsewhere a lock file ``PATH.held`` created with ``O_EXCL`` and
+    holding the writer's process id: it is removed when the block ends, and a waiter
+    removes one whose process no longer runs (a writer killed while publishing).
+    """
+    try:
+        import fcntl
+    except ImportError:
+        fcntl = None  # type: ignore[assignment]
+    if fcntl is not None:
+        with open(path, "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            yield
+        return
+    held = path.with_name(path.name + ".held")
+    mine = f"{os.getpid()}\n".encode()
+    while True:
+        try:
+            fd = os.open(held, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            _remove_dead_lock(held)
+            time.sleep(LOCK_POLL_S)
+            continue
+        try:
+            os.write(fd, mine)
+        finally:
+            os.close(fd)
+        break
+    try:
+        yield
+    finally:
+        held.unlink(missing_ok=True)
+
+
+def _remove_dead_lock(held: Path) -> None:
+    """Remove lock file ``held`` if the process it names no longer runs: it is moved
+    aside under a name of this thread's own first, and put back if what was moved is
+    not the dead one's (another waiter took the lock in between)."""
+    try:
+        owner = int(held.read_text() or "0")
+    except (OSError, ValueError):
+        return  # gone, or being written: try again later
+    if owner <= 0 or pid_alive(owner):
+        return
+    aside = held.with_name(f"{held.name}.{os.getpid()}.{threading.get_ident()}")
+    try:
+        os.replace(held, aside)
+    except OSError:
+        return
+    try:
+        moved = int(aside.read_text() or "0")
+    except (OSError, ValueError):
+        moved = owner
+    if moved == owner:
+        aside.unlink(missing_ok=True)
+    else:
+        try:
+            os.link(aside, held)  # back to its holder, unless a third run took it meanwhile
+        except OSError:
+            pass
+        aside.unlink(missing_ok=True)
 
 
 @contextmanager

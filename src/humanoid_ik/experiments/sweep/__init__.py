@@ -3,10 +3,11 @@ seeds) run as independent jobs on a local process pool or on a Ray cluster, resu
 then summarised.
 
 Modules: ``jobs`` (running one job into a record), ``executors`` (local pool, Ray),
-``summary`` (summary rows, CSV/JSON, plot) and ``resume`` (:func:`run_sweep`: the job
-records on disk and what is left to run). The sweep file itself (:class:`Job`,
-:class:`Sweep`, :func:`load_sweep`, :func:`parse_sweep`) is read by
-:mod:`humanoid_ik.config.sweep_file` and re-exported here.
+``ray_head`` (the process that drives a local Ray instance in a process group of its
+own, run as a script), ``summary`` (summary rows, CSV/JSON, plot) and ``resume``
+(:func:`run_sweep`: the job records on disk and what is left to run). The sweep file
+itself (:class:`Job`, :class:`Sweep`, :func:`load_sweep`, :func:`parse_sweep`) is read
+by :mod:`humanoid_ik.config.sweep_file` and re-exported here.
 """
 
 from humanoid_ik.config.sweep_file import Job, Sweep, load_sweep, parse_sweep

@@ -6,6 +6,12 @@ one process and a Ray cluster needs no shared file system. A worker that dies gi
 ``failed`` record (:func:`~humanoid_ik.experiments.sweep.jobs.failed_record`) instead of
 stopping the others.
 
+Both make the processes they start end with the calling process, however it ends, with
+no tag in anyone's environment and no look at processes of others: the local pool's
+workers watch a pipe that only the caller holds open (:func:`die_with`), and a local Ray
+instance is driven by a process in a process group of its own that is killed as a whole
+(:func:`_run_ray_local`).
+
 Joining a Ray cluster gives up after about :data:`RAY_CONNECT_TIMEOUT_S` seconds (Ray's
 own defaults wait minutes for an address where nothing answers): while Ray is imported
 and while it connects, the environment variables of :data:`RAY_CONNECT_ENV` are set
@@ -15,32 +21,30 @@ is imported; a Ray imported before keeps its own timeouts).
 
 from __future__ import annotations
 
-import ctypes
 import multiprocessing as mp
 import os
+import pickle
 import signal
 import subprocess
 import sys
 import tempfile
 import threading
-import time
-import uuid
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
-from typing import Any
+from multiprocessing.connection import Connection
+from typing import IO, Any
 
 from humanoid_ik.config.sweep_file import Job
 from humanoid_ik.errors import SweepError
 from humanoid_ik.experiments.sweep.jobs import failed_record, run_job
-from humanoid_ik.outputs.atomic import pid_alive
 
 __all__ = [
     "MAX_WORKERS",
     "PRELOAD",
     "RAY_CONNECT_ENV",
-    "RAY_TAG_ENV",
     "RAY_CONNECT_TIMEOUT_S",
+    "RAY_SHUTDOWN_TIMEOUT_S",
     "OnDone",
     "die_with",
     "import_ray",
@@ -70,30 +74,25 @@ RAY_CONNECT_ENV = {
 of :data:`RAY_CONNECT_TIMEOUT_S` seconds (plus Ray's fixed 5 s connection checks)."""
 
 
-WATCH_INTERVAL_S = 0.25
-"""How often a worker checks that the process that started the sweep is alive [s]."""
-
-
-def die_with(owner: int) -> None:
-    """Make this process (a pool worker) end when process ``owner`` ends, however it
-    ends, SIGKILL included: the kernel kills it with its parent (the forkserver) where
-    Linux's ``PR_SET_PDEATHSIG`` is available, and a daemon thread checks ``owner``
-    every :data:`WATCH_INTERVAL_S` seconds; when ``owner`` is gone the worker stops the
-    forkserver that forked it and exits, so nothing outlives the sweep or keeps the
-    caller's stdout and stderr open."""
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
+def die_with(owner: Connection) -> None:
+    """Make this process (a pool worker) end when the sweep that started it ends, however
+    it ends, SIGKILL included. ``owner`` is the read end of a pipe whose only write end
+    the sweep holds: the operating system closes it when the sweep ends, and a daemon
+    thread waiting on it then stops the forkserver that forked this worker (while that
+    is still this worker's parent) and exits, so nothing outlives the sweep or keeps
+    the caller's stdout and stderr open. Portable: no ``/proc``, no ``prctl``."""
+    forkserver = os.getppid()
 
     def watch() -> None:
-        while pid_alive(owner):
-            time.sleep(WATCH_INTERVAL_S)
-        parent = os.getppid()
-        if parent not in (1, owner):
+        try:
+            while True:
+                owner.recv_bytes()  # nothing is ever sent: returns at EOF only
+        except (EOFError, OSError):
+            pass
+        if os.getppid() == forkserver and forkserver != 1:
             try:
-                os.kill(parent, signal.SIGKILL)
-            except OSError:
+                os.kill(forkserver, signal.SIGKILL)
+            except (OSError, AttributeError):  # gone already; no SIGKILL on Windows
                 pass
         os._exit(1)
 
@@ -105,7 +104,8 @@ def run_local(
 ) -> None:
     """Run ``jobs`` on ``workers`` local processes (forkserver, see :data:`PRELOAD`).
 
-    The workers end with this process whatever ends it (:func:`die_with`). Ctrl-C
+    The workers end with this process whatever ends it (:func:`die_with`: the read end
+    of a pipe goes to each worker, the write end stays here). Ctrl-C
     cancels the jobs not yet started and is raised again.
 
     Args:
@@ -123,24 +123,29 @@ def run_local(
 
             resource_tracker.ensure_running()
             forkserver.ensure_running()
-    with ProcessPoolExecutor(
-        max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(os.getpid(),)
-    ) as pool:
-        pending = {pool.submit(run_job, job): job for job in jobs}
-        try:
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    job = pending.pop(fut)
-                    try:
-                        rec = fut.result()
-                    except Exception as exc:  # noqa: BLE001 - a dead worker
-                        rec = failed_record(job, exc)
-                    on_done(job, rec)
-        except BaseException:
-            for fut in pending:
-                fut.cancel()
-            raise
+    watched, alive = ctx.Pipe(duplex=False)  # alive: not inheritable, held here only
+    try:
+        with ProcessPoolExecutor(
+            max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(watched,)
+        ) as pool:
+            pending = {pool.submit(run_job, job): job for job in jobs}
+            try:
+                while pending:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        job = pending.pop(fut)
+                        try:
+                            rec = fut.result()
+                        except Exception as exc:  # noqa: BLE001 - a dead worker
+                            rec = failed_record(job, exc)
+                        on_done(job, rec)
+            except BaseException:
+                for fut in pending:
+                    fut.cancel()
+                raise
+    finally:  # after the pool's shutdown: its workers have exited
+        alive.close()
+        watched.close()
 
 
 @contextmanager
@@ -230,37 +235,83 @@ def _init_ray(ray: Any, workers: int | None, address: str) -> None:
     sys.stderr.write("".join(held))
 
 
-RAY_TAG_ENV = "HUMANOID_IK_RAY_SESSION"
-"""The environment variable that marks the processes of a local Ray instance started by
-a sweep, for the reaper (``experiments/sweep/reaper.py``)."""
+RAY_SHUTDOWN_TIMEOUT_S = 60.0
+"""How long the process of a local Ray instance may take to shut Ray down after the
+last record before the sweep kills its process group [s]."""
+_HEAD = os.path.join(os.path.dirname(__file__), "ray_head.py")
 
 
-@contextmanager
-def _fate_shared() -> Iterator[None]:
-    """Processes started in the block (a local Ray instance) die with this process,
-    however it dies: they inherit a tag in their environment, and a reaper process
-    kills every process with the tag when this one's pipe to it closes (at once after
-    a normal end, for some seconds after this process was killed)."""
-    tag = uuid.uuid4().hex
-    reaper = subprocess.Popen(
-        [sys.executable, os.path.join(os.path.dirname(__file__), "reaper.py"), RAY_TAG_ENV, tag],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
-    os.environ[RAY_TAG_ENV] = tag
+def _can_own_a_group() -> bool:
+    """True where a process group can be started and killed as a whole (POSIX)."""
+    return hasattr(os, "killpg") and hasattr(os, "setsid")
+
+
+def _run_ray_local(jobs: Sequence[Job], workers: int | None, on_done: OnDone) -> None:
+    """Run ``jobs`` on a local Ray instance of ``workers`` CPUs (default all) that a
+    process of its own drives (``ray_head.py``), in a new session and so a process
+    group that this process owns; records come back through a pipe.
+
+    When this process ends, however it ends (SIGKILL included: the operating system
+    closes the pipe), that process kills its whole group: Ray's GCS, raylet and agents
+    go at once, and Ray's workers (in groups of their own) end by themselves within
+    seconds of their raylet (Ray's own fate-sharing). A terminal's Ctrl-C does not
+    reach the instance (another session): the sweep handles it and the pipe closes.
+
+    Raises:
+        SweepError: Ray does not start (its one-line reason), or its process ended
+            before the last record.
+    """
+    jobs = list(jobs)
+    with tempfile.TemporaryFile() as said:  # what it prints (Ray's notes, a traceback)
+        head = subprocess.Popen(
+            [sys.executable, _HEAD],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=said,
+            start_new_session=True,
+        )
+        _drive(head, jobs, workers, on_done, said)
+
+
+def _drive(
+    head: subprocess.Popen, jobs: list[Job], workers: int | None, on_done: OnDone, said: IO[bytes]
+) -> None:
+    """Send ``jobs`` to the process ``head`` (``ray_head.py``), hand each record it
+    sends back to ``on_done``, and end it (see :func:`_run_ray_local`)."""
+    assert head.stdin is not None and head.stdout is not None
     try:
-        yield
+        try:
+            pickle.dump((workers or os.cpu_count() or 1, jobs), head.stdin)
+            head.stdin.flush()
+        except BrokenPipeError:
+            pass  # it ended already: reading says so
+        while True:
+            try:
+                message = pickle.load(head.stdout)
+            except EOFError:
+                said.seek(0)
+                lines = [ln.strip() for ln in said.read().decode(errors="replace").splitlines()]
+                why = next((ln for ln in reversed(lines) if ln), "no reason given")
+                raise SweepError(
+                    None, "", f"the local Ray instance ended before the sweep's last job: {why}"
+                ) from None
+            if message[0] == "record":
+                on_done(jobs[message[1]], message[2])
+            elif message[0] == "error":
+                raise SweepError(None, "", f"cannot start a local Ray instance: {message[1]}")
+            else:  # ("end",)
+                break
     finally:
-        os.environ.pop(RAY_TAG_ENV, None)
-        if reaper.stdin is not None:
-            try:  # Ray was shut down here: one pass of the reaper is enough
-                reaper.stdin.write(b"done\n")
-                reaper.stdin.close()
-            except OSError:
-                pass
-        reaper.wait()
+        try:
+            head.stdin.close()  # the process reads EOF: it shuts Ray down and ends
+        except OSError:
+            pass
+        try:
+            head.wait(RAY_SHUTDOWN_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            os.killpg(head.pid, signal.SIGKILL)  # not reaped yet: the group is still ours
+            head.wait()
+        head.stdout.close()
 
 
 def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnDone) -> None:
@@ -272,16 +323,18 @@ def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnD
         address: ``"local"`` starts a private instance, anything else is passed to
             ``ray.init(address=...)``. A Ray already initialised in this process is used
             as it is (and left running); one started here is shut down at the end, and
-            its processes die with this one if it is killed (``_fate_shared``).
+            its processes die with this one if it is killed (:func:`_run_ray_local`; where
+            process groups are missing, Windows, Ray is started in this process and
+            Ray's own fate-sharing applies).
         on_done: called as each record comes back.
 
     Raises:
-        SweepError: Ray is not installed, or cannot join the cluster at ``address``.
+        SweepError: Ray is not installed, cannot start, or cannot join the cluster at
+            ``address``.
     """
     ray = import_ray(address)
-    if address == "local" and not ray.is_initialized():
-        with _fate_shared():
-            _run_ray(ray, jobs, workers, address, on_done)
+    if address == "local" and not ray.is_initialized() and _can_own_a_group():
+        _run_ray_local(jobs, workers, on_done)
     else:
         _run_ray(ray, jobs, workers, address, on_done)
 
