@@ -1,5 +1,5 @@
 """Scene files and motions under fuzzing: a bad value ends in one line naming the file and
-the key (SceneError) or the parameter (TrajectoryError); a value that loads is what the
+the key (SceneError) or the parameter (MotionError); a value that loads is what the
 scene holds, and the scene's first frame runs on its motions; runs are deterministic."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from humanoid_ik.config.scene import Scene, bundled_scenes_dir, load_scene
 from humanoid_ik.config.toml import quote_key
-from humanoid_ik.errors import SceneError, TrajectoryError
+from humanoid_ik.errors import MotionError, SceneError
 from humanoid_ik.motion import MOTIONS, Orientation
 from humanoid_ik.run.runner import run_scene
 
@@ -306,14 +306,14 @@ def test_valid_parameters_cover_every_kind():
 @FUZZ
 @given(st.sampled_from(sorted(MOTIONS)), st.data())
 def test_mutated_motion_parameter(kind, data):
-    """A motion parameter set to anything: stored, or a TrajectoryError names it."""
+    """A motion parameter set to anything: stored, or a MotionError names it."""
     cls = MOTIONS[kind]
     name = data.draw(st.sampled_from(cls.parameters()), label="parameter")
     value = data.draw(parameter_values, label="value")
     try:
         motion = cls(**(VALID[kind] | {name: value}))
-    except TrajectoryError as exc:
-        event("TrajectoryError")
+    except MotionError as exc:
+        event("MotionError")
         assert exc.field == name or exc.field.startswith(f"{name}["), exc.field
         assert str(exc).startswith(f"{exc.field}: expected ")
         # one line, but for a value holding a table key with a line break: show_value
@@ -330,11 +330,11 @@ def test_mutated_motion_parameter(kind, data):
 @example("quat", [0.0, 0.0, 0.0, 1.0])
 @example("amplitude", 0.2)
 def test_mutated_orientation_parameter(name, value):
-    """An orientation parameter set to anything: stored, or a TrajectoryError names it."""
+    """An orientation parameter set to anything: stored, or a MotionError names it."""
     params = {"quat": [1.0, 0.0, 0.0, 0.0], "axis": [0.0, 0.0, 1.0]} | {name: value}
     try:
         orient = Orientation(**params)
-    except TrajectoryError as exc:
+    except MotionError as exc:
         assert exc.field == name and str(exc).startswith(f"{name}: expected "), str(exc)
         return
     held = getattr(orient, name)

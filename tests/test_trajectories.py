@@ -9,7 +9,7 @@ import pytest
 
 from humanoid_ik.core.checks import MAX_POINTS, check_int, check_vector
 from humanoid_ik.core.rotations import quat_to_mat, rotation_log
-from humanoid_ik.errors import TrajectoryError
+from humanoid_ik.errors import MotionError
 from humanoid_ik.motion import (
     MAX_KNOTS,
     MOTIONS,
@@ -301,9 +301,9 @@ def test_motion_registry_and_parameters():
     ],
 )
 def test_bad_parameters_name_the_field(build, field, expected):
-    """Each bad parameter raises TrajectoryError naming the field, the expectation and the
+    """Each bad parameter raises MotionError naming the field, the expectation and the
     value given."""
-    with pytest.raises(TrajectoryError) as info:
+    with pytest.raises(MotionError) as info:
         build()
     assert info.value.field == field
     assert expected in info.value.expected
@@ -312,27 +312,27 @@ def test_bad_parameters_name_the_field(build, field, expected):
 
 def test_error_message_shows_the_value_as_toml():
     """The message shows strings quoted, booleans as true/false and lists in brackets."""
-    with pytest.raises(TrajectoryError, match=r"^radius: expected a number > 0, got 'big'$"):
+    with pytest.raises(MotionError, match=r"^radius: expected a number > 0, got 'big'$"):
         Circle(C, "big")
-    with pytest.raises(TrajectoryError, match=r"got true$"):
+    with pytest.raises(MotionError, match=r"got true$"):
         Circle(C, True)
-    with pytest.raises(TrajectoryError, match=r"got \[1, 2\]$"):
+    with pytest.raises(MotionError, match=r"got \[1, 2\]$"):
         check_vector("center", [1, 2])
-    with pytest.raises(TrajectoryError, match=r"an integer, got 'x'$"):
+    with pytest.raises(MotionError, match=r"an integer, got 'x'$"):
         check_int("n", "x")
 
 
 def test_random_walk_keeps_a_bounded_number_of_knots():
     """A random walk draws at most MAX_KNOTS knots: it reaches ``horizon`` seconds, and a
-    later time (or knot) is a TrajectoryError at once, without drawing knots first."""
+    later time (or knot) is a MotionError at once, without drawing knots first."""
     walk = RandomWalk([0.4, -0.3, 1.2], [0.1, 0.1, 0.1], interval=0.5)
     assert walk.horizon == (MAX_KNOTS - 3) * 0.5
     tiny = RandomWalk([0.4, -0.3, 1.2], [0.1, 0.1, 0.1], interval=1e-6)
     end = tiny.position(tiny.horizon)  # the last instant it covers works
     assert np.all(np.isfinite(end)) and len(tiny._knots) <= MAX_KNOTS
-    with pytest.raises(TrajectoryError, match=r"^t: expected a time <= 0.099997 s"):
+    with pytest.raises(MotionError, match=r"^t: expected a time <= 0.099997 s"):
         tiny.position(tiny.horizon * 1.001)
-    with pytest.raises(TrajectoryError, match=r"^knot: expected an index < 100000"):
+    with pytest.raises(MotionError, match=r"^knot: expected an index < 100000"):
         walk.knot(MAX_KNOTS)
     assert len(walk._knots) == 1
 
@@ -340,6 +340,6 @@ def test_random_walk_keeps_a_bounded_number_of_knots():
 def test_points_are_bounded():
     """At most MAX_POINTS points; the message gives the count, not the list."""
     Points([[0.0, 0.0, 0.0]] * MAX_POINTS)
-    with pytest.raises(TrajectoryError) as err:
+    with pytest.raises(MotionError) as err:
         Waypoints([[0.0, 0.0, float(i)] for i in range(MAX_POINTS + 1)])
     assert str(err.value) == f"points: expected at most {MAX_POINTS} points, got {MAX_POINTS + 1}"

@@ -150,22 +150,49 @@ def test_render_writes_the_trajectory_too(tmp_path):
 
 
 def test_interrupted_run_keeps_its_frames(tmp_path):
-    """Ctrl-C in the loop: the trajectory holds the frames done and says it was cut."""
+    """Ctrl-C in the loop: the trajectory holds the frames every sink took and says it
+    was cut."""
     scene = load_scene("circle").with_overrides(frames=10)
     runner = SceneRunner(scene)
-    rec = runner.recorder()
 
     class Stop:
         def add_frame(self, record, data):
             if record.index == 3:
                 raise KeyboardInterrupt
 
-    metrics = runner.run(sinks=[rec, Stop()])
-    t = rec.trajectory(metrics.interrupted)
-    assert t.interrupted and t.n_frames == 4
+    recording = runner.run(sinks=[Stop()])
+    t = recording.trajectory()
+    assert t.interrupted and t.n_frames == 3 == len(recording)
     write_trajectory(t, tmp_path)
     back = load_trajectory(tmp_path / "trajectory.npz")
-    assert back.interrupted and back.n_frames == 4
+    assert back.interrupted and back.n_frames == 3
+
+
+@pytest.mark.parametrize("suffix", ["npz", "csv"])
+def test_a_trajectory_file_gives_back_every_sample_of_the_run(tmp_path, suffix):
+    """One recording per run: what the files hold turns back into the run's records,
+    field for field (iterations, solve time, limit margin and orientation error were
+    lost on the way back before)."""
+    scene = load_scene("figure8_pose").with_overrides(frames=6)
+    recording = SceneRunner(scene).run()
+    write_trajectory(recording.trajectory(), tmp_path)
+    back = load_trajectory(tmp_path / f"trajectory.{suffix}")
+    for i, frame in enumerate(recording.frames):
+        assert _same_frame(back.record(i), frame)
+    assert any(s.orientation_error is not None for s in recording.frames[0].samples)
+    assert all(s.iterations > 0 for f in recording.frames for s in f.samples[:1])
+
+
+def _same_frame(a, b) -> bool:
+    assert a.index == b.index and a.time == b.time
+    for x, y in zip(a.samples, b.samples, strict=True):
+        for name in x._fields:
+            u, v = getattr(x, name), getattr(y, name)
+            if isinstance(u, np.ndarray):
+                np.testing.assert_array_equal(u, v)
+            else:
+                assert u == v, name
+    return True
 
 
 def test_frame_loop_stop():
@@ -234,7 +261,7 @@ def test_other_version_and_missing_column(showcase, tmp_path):
     cut = tmp_path / "cut.csv"
     rows = [",".join(r.split(",")[:-1]) for r in lines[1:]]  # drop the last column
     cut.write_text(lines[0] + "\n" + "\n".join(rows) + "\n")
-    with pytest.raises(TrajectoryFileError, match="lacks column 'gaze_site.status'"):
+    with pytest.raises(TrajectoryFileError, match="lacks column 'gaze_site.limit_margin_rad'"):
         load_trajectory(cut)
 
 
@@ -333,4 +360,29 @@ def _cut(track, n):
         on_target=track.on_target[:n],
         reachable=track.reachable[:n],
         status=track.status[:n],
+        orientation_error=track.orientation_error[:n],
+        iterations=track.iterations[:n],
+        solve_time=track.solve_time[:n],
+        limit_margin=track.limit_margin[:n],
     )
+
+
+def test_the_former_names_of_the_recording_warn_and_still_work():
+    """``Metrics`` and ``TrajectoryRecorder`` (deprecated for one release) name the
+    recording: a ``TrajectoryRecorder`` sink handed to a run records what the run's own
+    recording does."""
+    import humanoid_ik.run.metrics as metrics
+    import humanoid_ik.run.trajectory as trajectory
+    from humanoid_ik.run.recording import Recording
+
+    with pytest.warns(DeprecationWarning, match=r"run\.recording\.Recording"):
+        assert metrics.Metrics is Recording
+    scene = load_scene("circle").with_overrides(frames=4)
+    runner = SceneRunner(scene)
+    with pytest.warns(DeprecationWarning, match="TrajectoryRecorder is deprecated"):
+        old = trajectory.TrajectoryRecorder(
+            scene, runner.model, runner.chains, runner.targets, runner.solver_labels()
+        )
+    recording = runner.run(sinks=[old])
+    np.testing.assert_array_equal(old.trajectory().qpos, recording.trajectory().qpos)
+    assert old.trajectory().n_frames == 4

@@ -21,8 +21,9 @@ from humanoid_ik.core.models import (
     URDF_MIN_MASS,
     load_model,
     needs_stage,
-    staged_model,
+    staged_cameras,
 )
+from humanoid_ik.outputs.stage import staged_model
 
 REPO = Path(__file__).resolve().parents[1]
 ARM7 = REPO / "examples" / "urdf_arm" / "arm7.urdf"
@@ -206,15 +207,19 @@ def test_site_and_body_are_exclusive(capsys):
 
 
 def test_scene_with_a_body_effector_on_the_urdf_arm():
-    """A scene file names the URDF (relative) and a body effector; it loads on the staged
-    model, which has the stage cameras and the same joints as the bare one."""
+    """A scene file names the URDF (relative) and a body effector; it runs on the model
+    as the file has it (no stage: the solvers never see one), and its film's staged
+    model has the stage cameras and the same joints."""
     scene = load_scene(ARM7_SCENE)
     (eff,) = scene.effectors
     assert eff.body == "tool_link" and eff.site is None and eff.name == "tool_link"
-    bare, staged = load_model(ARM7), scene_model(scene)
-    assert needs_stage(bare) and not needs_stage(staged)
+    bare, run_on = load_model(ARM7), scene_model(scene)
+    assert needs_stage(run_on) and (run_on.ngeom, run_on.ncam) == (bare.ngeom, bare.ncam)
+    staged = staged_model(scene.model, scene.target_points())
+    assert not needs_stage(staged)
     assert bare.nq == staged.nq and bare.njnt == staged.njnt
     assert {staged.camera(i).name for i in range(staged.ncam)} == set(STAGE_CAMERAS)
+    assert staged_cameras(run_on) == list(STAGE_CAMERAS)  # what a scene may film with
 
 
 def test_scene_effector_needs_exactly_one_of_site_and_body(tmp_path):
@@ -269,7 +274,7 @@ def test_render_of_the_urdf_arm_shows_floor_sky_and_arm(tmp_path):
     floor, the upper band the blue-grey sky, and the orange arm links are in view."""
     import imageio.v2 as imageio
 
-    from humanoid_ik import render_scene
+    from humanoid_ik.outputs.render import render_scene
 
     scene = load_scene(ARM7_SCENE).with_overrides(frames=3, width=96, height=72)
     out = render_scene(scene, tmp_path / "r", video=False, plot=False)

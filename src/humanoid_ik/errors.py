@@ -5,7 +5,9 @@ Every message names the bad value and, where there is a finite set, the valid ch
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
+from typing import Any
 
 
 class HumanoidIKError(Exception):
@@ -52,8 +54,9 @@ def choices(valid: Iterable[str]) -> str:
     return ", ".join(sorted(valid))
 
 
-class TrajectoryError(HumanoidIKError, ValueError):
-    """A target motion with a bad parameter (a negative radius, a zero normal...).
+class MotionError(HumanoidIKError, ValueError):
+    """A target motion with a bad parameter (a negative radius, a zero normal...)
+    (``TrajectoryError`` before: "trajectory" now means the files of a run only).
 
     Attributes:
         field: the parameter's name, e.g. ``radius``.
@@ -128,3 +131,14 @@ class DatasetError(HumanoidIKError, ValueError):
 class TrajectoryFileError(HumanoidIKError, ValueError):
     """A trajectory file that cannot be read, or that does not fit the model it is played
     or exported on (other joints, another model file's digest)."""
+
+
+def __getattr__(name: str) -> Any:
+    if name == "TrajectoryError":
+        warnings.warn(
+            "humanoid_ik.errors.TrajectoryError is deprecated; use MotionError",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return MotionError
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from humanoid_ik.cli.args import UsageError, nonempty_path
-from humanoid_ik.cli.scenes import frame_size, report_files
+from humanoid_ik.cli.scene_args import frame_size, report_files
 
 __all__ = ["register"]
 

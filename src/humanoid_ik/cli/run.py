@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from humanoid_ik.cli.scenes import (
+from humanoid_ik.cli.scene_args import (
     add_scene_args,
     print_summary,
     report_files,

@@ -49,23 +49,27 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import mujoco
-
+from humanoid_ik.config.scene_check import (
+    RENDER_EXPECTED,
+    check_collision_pairs,
+    check_duration,
+    check_scene,
+    frame_size_ok,
+    scene_model,
+    takes_collision_pairs,
+)
 from humanoid_ik.config.specs import (
     MAX_CONTACT_SHEET,
     MAX_FPS,
     MAX_FRAMES,
-    MAX_IMAGE_SIZE,
     MAX_SNAPSHOTS,
     MAX_TRAIL,
     MIN_FPS,
-    MIN_IMAGE_SIZE,
     TASKS,
     EffectorSpec,
     RenderSpec,
     Scene,
     SolverSpec,
-    moves_several,
 )
 from humanoid_ik.config.toml import (
     NAME,
@@ -75,17 +79,15 @@ from humanoid_ik.config.toml import (
     quote_key,
     read_toml,
 )
-from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.checks import check_bool, check_choice, check_int, check_number
 from humanoid_ik.core.models import (
     bundled_dir,
     bundled_model_path,
-    model_cameras,
-    staged_model,
 )
 from humanoid_ik.errors import HumanoidIKError, SceneError
-from humanoid_ik.motion import MAX_KNOTS, MOTIONS, Motion, Orientation, RandomWalk, TargetTrack
+from humanoid_ik.motion import MOTIONS, Motion, Orientation, TargetTrack
 from humanoid_ik.solvers import SOLVERS, make_solver
+from humanoid_ik.solvers.mink.options import collision_pairs_problem
 
 __all__ = [
     "TASKS",
@@ -95,6 +97,7 @@ __all__ = [
     "SolverSpec",
     "bundled_scenes",
     "bundled_scenes_dir",
+    "check_collision_pairs",
     "check_scene",
     "display_path",
     "find_scene",
@@ -149,16 +152,6 @@ _TOP = {
     "effectors": "an array of tables [[effectors]] with site (or body) and target",
 }
 _SOLVER = {"name": "a solver name", "options": "a table of solver options"}
-_SIZE = f"an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE} (pixels)"
-_RENDER = {
-    "width": _SIZE,
-    "height": _SIZE,
-    "camera": "a camera name",
-    "trail": f"a number >= 0 and <= {MAX_TRAIL:g} (seconds)",
-    "gif": "true or false",
-    "snapshots": f"a list of at most {MAX_SNAPSHOTS} times >= 0 (seconds)",
-    "contact_sheet": f"an integer >= 0 and <= {MAX_CONTACT_SHEET}",
-}
 _TARGET = {
     "name": "a target name",
     "motion": "a table with kind",
@@ -184,6 +177,11 @@ def _solver_spec(r: TomlReader, key: str, value: Any) -> SolverSpec:
     if not isinstance(name, str) or name not in SOLVERS:
         raise r.expect(f"{key}.name", f"one of {', '.join(SOLVERS)}", name)
     options = r.table(f"{key}.options", tbl.get("options", {}))
+    if "collision_pairs" in options and takes_collision_pairs(name):
+        problem = collision_pairs_problem(options["collision_pairs"])
+        if problem is not None:
+            where, expected, got = problem
+            raise r.expect(f"{key}.options.collision_pairs{where}", expected, got)
     try:
         make_solver(name, **options)
     except HumanoidIKError as exc:
@@ -229,13 +227,13 @@ def _orientation(r: TomlReader, key: str, value: Any) -> Orientation:
 def _render_spec(r: TomlReader, value: Any) -> RenderSpec:
     """The ``[render]`` table (every key optional)."""
     tbl = r.table("render", value)
-    r.keys("render", tbl, _RENDER)
+    r.keys("render", tbl, RENDER_EXPECTED)
     kw: dict[str, Any] = {}
     for k in ("width", "height"):
         if k in tbl:
             v = tbl[k]
-            if isinstance(v, bool) or not isinstance(v, int) or not _frame_size_ok(v):
-                raise r.expect(f"render.{k}", _RENDER[k], v)
+            if isinstance(v, bool) or not isinstance(v, int) or not frame_size_ok(v):
+                raise r.expect(f"render.{k}", RENDER_EXPECTED[k], v)
             kw[k] = v
     if "camera" in tbl:
         kw["camera"] = r.string("render.camera", tbl["camera"], "a camera name")
@@ -246,7 +244,7 @@ def _render_spec(r: TomlReader, value: Any) -> RenderSpec:
     if "snapshots" in tbl:
         snaps = tbl["snapshots"]
         if not isinstance(snaps, list):
-            raise r.expect("render.snapshots", _RENDER["snapshots"], snaps)
+            raise r.expect("render.snapshots", RENDER_EXPECTED["snapshots"], snaps)
         if len(snaps) > MAX_SNAPSHOTS:
             raise r.expect("render.snapshots", f"at most {MAX_SNAPSHOTS} times", len(snaps))
         kw["snapshots"] = tuple(
@@ -263,12 +261,6 @@ def _render_spec(r: TomlReader, value: Any) -> RenderSpec:
             high=MAX_CONTACT_SHEET,
         )
     return RenderSpec(**kw)
-
-
-def _frame_size_ok(v: int) -> bool:
-    """An even frame width or height within :data:`MIN_IMAGE_SIZE` and
-    :data:`MAX_IMAGE_SIZE`."""
-    return MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v % 2 == 0
 
 
 def _array_of_tables(r: TomlReader, doc: Mapping[str, Any], key: str) -> list[dict[str, Any]]:
@@ -360,17 +352,6 @@ def _model_path(r: TomlReader, doc: Mapping[str, Any], base: Path | None) -> Pat
     return model
 
 
-def _check_duration(r: TomlReader, duration: float, fps: float) -> None:
-    """``duration x fps`` is at most :data:`MAX_FRAMES` frames."""
-    if max(1, round(duration * fps)) > MAX_FRAMES:
-        raise r.expect(
-            "duration",
-            f"a number > 0 and <= {MAX_FRAMES / fps:g} (at most {MAX_FRAMES} frames at "
-            f"{fps:g} fps)",
-            duration,
-        )
-
-
 def frames_limit(scene: Scene) -> int:
     """The most frames ``scene`` may run: :data:`MAX_FRAMES`, and no frame later than its
     motions reach (a ``random_walk`` covers :data:`MAX_KNOTS` knots; see
@@ -407,7 +388,7 @@ def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -
     model = _model_path(r, doc, base)
     duration = r.call("", check_number, "duration", doc["duration"], low=0.0, strict=True)
     fps = r.call("", check_number, "fps", doc.get("fps", 30), low=MIN_FPS, high=MAX_FPS)
-    _check_duration(r, duration, fps)
+    check_duration(r, duration, fps)
     solver = _solver_spec(r, "solver", doc.get("solver", {"name": "auto"}))
     render = _render_spec(r, doc.get("render", {}))
     targets = _targets(r, doc)
@@ -427,146 +408,6 @@ def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -
 
 
 # ----------------------------------------------------------------------------- model checks
-def _check_effector(
-    r: TomlReader,
-    scene: Scene,
-    model: mujoco.MjModel,
-    i: int,
-    owner: dict[str, int],
-) -> Chain:
-    """Effector ``i``'s chain once its site, joints and solver fit; ``owner`` (joint ->
-    effector index) gains its joints."""
-    eff = scene.effectors[i]
-    key = f"effectors[{i}]"
-    objtype, count = {
-        "site": (mujoco.mjtObj.mjOBJ_SITE, model.nsite),
-        "body": (mujoco.mjtObj.mjOBJ_BODY, model.nbody),
-    }[eff.kind]
-    if mujoco.mj_name2id(model, objtype, eff.name) < 0:
-        found = [mujoco.mj_id2name(model, objtype, k) for k in range(count)]
-        valid = ", ".join(sorted(s for s in found if s)) or "none"
-        raise r.expect(f"{key}.{eff.kind}", f"a {eff.kind} of the model ({valid})", eff.name)
-    try:
-        chain = Chain(model, eff.site, eff.joints, body=eff.body)
-    except HumanoidIKError as exc:
-        raise r.fail(f"{key}.joints", str(exc)) from None
-    for j in chain.joint_names:
-        if j in owner:
-            raise r.fail(
-                f"{key}.joints",
-                f"joint '{j}' is already moved by effectors[{owner[j]}]; expected "
-                "effectors with separate joints (set joints = [...])",
-            )
-        owner[j] = i
-    spec = scene.solver_for(eff)
-    target = scene.target(eff.target)
-    where = f"{key}.solver.name" if eff.solver is not None else "solver.name"
-    if eff.task == "reach" and spec.name == "look_at":
-        raise r.fail(
-            where,
-            f"solver 'look_at' aims a site at a point; {key} ({eff.name}) reaches "
-            "(task = 'reach'); expected a reaching solver or task = 'look_at'",
-        )
-    solver = spec.make()
-    several = moves_several(spec.name)
-    if eff.task == "look_at" and solver.reaches and not several:
-        raise r.fail(
-            where,
-            f"solver '{spec.name}' moves a site onto a point; {key} ({eff.name}) aims "
-            "(task = 'look_at'); expected 'look_at' or 'mink'",
-        )
-    reason = None if several else solver.applicable(chain, target.is_pose)
-    if reason is not None:
-        raise r.fail(where, f"solver '{spec.name}' cannot drive {key} ({eff.name}): {reason}")
-    return chain
-
-
-def _check_render(r: TomlReader, scene: Scene, model: mujoco.MjModel) -> None:
-    """The camera exists and the frame fits the model's off-screen buffer."""
-    cams = model_cameras(model)
-    if scene.render.camera not in cams:
-        raise r.expect(
-            "render.camera", f"one of {', '.join(cams) or '(no cameras)'}", scene.render.camera
-        )
-    offw, offh = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
-    for k, v, lim in (("width", scene.render.width, offw), ("height", scene.render.height, offh)):
-        if MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v > lim:
-            raise r.expect(
-                f"render.{k}", f"at most {lim} (the model's off-screen buffer, visual/global)", v
-            )
-        if not _frame_size_ok(v):
-            raise r.expect(f"render.{k}", _RENDER[k], v)
-
-
-def _check_sizes(r: TomlReader, scene: Scene) -> None:
-    """Every size-like value within its bound (for a scene built in code; a scene file's
-    values are checked as they are read): frame rate, frames, trail, contact sheet,
-    snapshots, and each motion reaching the last frame."""
-    fps = r.call("", check_number, "fps", scene.fps, low=MIN_FPS, high=MAX_FPS)
-    duration = r.call("", check_number, "duration", scene.duration, low=0.0, strict=True)
-    _check_duration(r, duration, fps)
-    rs = scene.render
-    r.call("render", check_number, "trail", rs.trail, low=0.0, high=MAX_TRAIL)
-    r.call("render", check_int, "contact_sheet", rs.contact_sheet, low=0, high=MAX_CONTACT_SHEET)
-    if len(rs.snapshots) > MAX_SNAPSHOTS:
-        raise r.expect("render.snapshots", f"at most {MAX_SNAPSHOTS} times", len(rs.snapshots))
-    last = (scene.n_frames - 1) / fps
-    for i, track in enumerate(scene.targets):
-        m = track.motion
-        if last > m.horizon and isinstance(m, RandomWalk):
-            raise r.expect(
-                f"targets[{i}].motion.interval",
-                f"a number >= {last / (MAX_KNOTS - 3):.3g} (a random_walk draws at most "
-                f"{MAX_KNOTS} knots, and this one runs {last:g} s)",
-                m.interval,
-            )
-        if last > m.horizon:
-            raise r.fail(
-                f"targets[{i}].motion", f"reaches {m.horizon:g} s; the scene runs {last:g} s"
-            )
-
-
-def scene_model(scene: Scene) -> mujoco.MjModel:
-    """The model a scene runs on: its MJCF or URDF file, placed in the default stage
-    where it lacks a light, a floor or the cameras (:func:`~humanoid_ik.core.models.
-    staged_model`), the cameras framing the model and the targets' paths.
-
-    Raises:
-        SceneError: the model file does not compile (``model`` key).
-    """
-    try:
-        return staged_model(scene.model, scene.target_points())
-    except HumanoidIKError as exc:
-        raise SceneError(scene.source, "model", str(exc)) from None
-
-
-def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain]:
-    """Check a scene against its model and return one chain per effector.
-
-    Checks every size-like value is within its bound (``docs/limits.md``), the sites and
-    joints exist, no two effectors share a joint, the camera exists, the frame fits
-    MuJoCo's off-screen buffer, and each effector's solver can solve its chain and task.
-
-    Args:
-        scene: the scene.
-        model: its compiled model (:func:`scene_model` when ``None``).
-
-    Returns:
-        The chains, in effector order, all on ``model``.
-
-    Raises:
-        SceneError: naming the scene file, the key and what was expected.
-    """
-    r = TomlReader(scene.source, SceneError)
-    _check_sizes(r, scene)
-    if model is None:
-        model = scene_model(scene)
-    owner: dict[str, int] = {}
-    chains = [_check_effector(r, scene, model, i, owner) for i in range(len(scene.effectors))]
-    _check_render(r, scene, model)
-    return chains
-
-
 def load_scene(path: str | os.PathLike) -> Scene:
     """Read, validate and check a scene file (or a bundled scene's name) against its model.
 

@@ -4,7 +4,7 @@ values that fails with one line naming the file, the key and what was expected, 
 
 The value checks themselves are :mod:`humanoid_ik.core.checks` (shared with the motions'
 constructors); :meth:`TomlReader.call` turns their
-:class:`~humanoid_ik.errors.TrajectoryError` into the reader's error.
+:class:`~humanoid_ik.errors.MotionError` into the reader's error.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.errors import HumanoidIKError, SceneError, TrajectoryError, show_value
+from humanoid_ik.errors import HumanoidIKError, MotionError, SceneError, show_value
 
 __all__ = ["NAME", "TomlReader", "display_path", "join_key", "quote_key", "read_toml"]
 
@@ -131,11 +131,11 @@ class TomlReader:
 
     def call(self, prefix: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """``fn(*args, **kwargs)`` (a ``check_*`` or a motion's constructor), with a
-        :class:`TrajectoryError` for parameter ``field`` turned into the reader's error
+        :class:`MotionError` for parameter ``field`` turned into the reader's error
         at key ``prefix.field``."""
         try:
             return fn(*args, **kwargs)
-        except TrajectoryError as exc:
+        except MotionError as exc:
             raise self.expect(join_key(prefix, exc.field), exc.expected, exc.got) from None
 
     def string(self, key: str, value: Any, what: str = "a string") -> str:

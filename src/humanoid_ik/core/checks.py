@@ -1,7 +1,7 @@
 """Value checks: a parameter converted to its type, or one error naming it.
 
 Each ``check_*`` returns the converted value or raises
-:class:`~humanoid_ik.errors.TrajectoryError` ``(field, expected, got)``. The motions'
+:class:`~humanoid_ik.errors.MotionError` ``(field, expected, got)``. The motions'
 constructors call them on their parameters, and the TOML reader
 (:class:`~humanoid_ik.config.toml.TomlReader`) calls them on file values, turning the
 error into a :class:`~humanoid_ik.errors.SceneError` that names the file and the key.
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.errors import TargetError, TrajectoryError
+from humanoid_ik.errors import MotionError, TargetError
 
 MAX_POINTS = 10_000
 """Most points a motion's ``points`` list may hold (``points``, ``waypoints``)."""
@@ -74,17 +74,17 @@ def check_number(
     """
     expected = _range("a number", low, high, strict)
     if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     try:
         v = float(value)
     except OverflowError:  # an int beyond float's range
-        raise TrajectoryError(name, expected, value) from None
+        raise MotionError(name, expected, value) from None
     if not math.isfinite(v):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     if low is not None and (v <= low if strict else v < low):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     if high is not None and v > high:
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     return v
 
 
@@ -93,19 +93,19 @@ def check_int(name: str, value: Any, *, low: int | None = None, high: int | None
     accepted)."""
     expected = _range("an integer", low, high)
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer)):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     if isinstance(value, float) and (not math.isfinite(value) or value != int(value)):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     v = int(value)
     if (low is not None and v < low) or (high is not None and v > high):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     return v
 
 
 def check_bool(name: str, value: Any) -> bool:
     """``value`` when it is ``true`` or ``false``."""
     if not isinstance(value, (bool, np.bool_)):
-        raise TrajectoryError(name, "true or false", value)
+        raise MotionError(name, "true or false", value)
     return bool(value)
 
 
@@ -128,19 +128,19 @@ def check_vector(
     if nonzero:
         expected += ", not all zero"
     if isinstance(value, (str, bytes, dict)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     items = list(value)
     if len(items) != n or any(
         isinstance(v, bool) or not isinstance(v, (int, float, np.number)) for v in items
     ):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     arr = np.array(items, dtype=np.float64)
     if not np.all(np.isfinite(arr)):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     if low is not None and np.any(arr < low):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     if nonzero and float(np.linalg.norm(arr)) < 1e-12:
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     arr.setflags(write=False)
     return arr
 
@@ -152,11 +152,11 @@ def check_points(
     bad point is named ``name[i]``."""
     expected = f"a list of at least {minimum} point(s) [x, y, z]"
     if isinstance(value, (str, bytes, dict)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     if len(value) < minimum:
-        raise TrajectoryError(name, expected, value)
+        raise MotionError(name, expected, value)
     if len(value) > maximum:  # the count, not the list, goes into the message
-        raise TrajectoryError(name, f"at most {maximum} points", len(value))
+        raise MotionError(name, f"at most {maximum} points", len(value))
     rows = [check_vector(f"{name}[{i}]", p) for i, p in enumerate(value)]
     arr = np.array(rows, dtype=np.float64)
     arr.setflags(write=False)
@@ -166,7 +166,7 @@ def check_points(
 def check_choice(name: str, value: Any, valid: Sequence[str]) -> str:
     """``value`` when it is one of ``valid``."""
     if not isinstance(value, str) or value not in valid:
-        raise TrajectoryError(name, f"one of {', '.join(repr(v) for v in valid)}", value)
+        raise MotionError(name, f"one of {', '.join(repr(v) for v in valid)}", value)
     return value
 
 

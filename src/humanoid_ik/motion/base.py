@@ -2,7 +2,7 @@
 interpolation formulas the motion kinds are built from.
 
 Every motion is a frozen dataclass whose parameters are checked in ``__post_init__``
-(a bad one raises :class:`~humanoid_ik.errors.TrajectoryError` naming the parameter,
+(a bad one raises :class:`~humanoid_ik.errors.MotionError` naming the parameter,
 what it must be and what it was; see :mod:`humanoid_ik.core.checks`) and whose
 :meth:`Motion.position` is a pure function of time, so a scene renders the same frames
 every run.

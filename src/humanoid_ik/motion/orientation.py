@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from humanoid_ik.core.checks import check_number, check_vector
 from humanoid_ik.core.rotations import quat_mul
-from humanoid_ik.errors import TrajectoryError
+from humanoid_ik.errors import MotionError
 from humanoid_ik.motion.base import set_frozen
 
 __all__ = ["Orientation"]
@@ -38,7 +38,7 @@ class Orientation:
     def __post_init__(self) -> None:
         q = check_vector("quat", self.quat, 4, nonzero=True)
         if abs(float(np.linalg.norm(q)) - 1.0) > 1e-3:
-            raise TrajectoryError("quat", "a unit quaternion [w, x, y, z]", self.quat)
+            raise MotionError("quat", "a unit quaternion [w, x, y, z]", self.quat)
         q = q / np.linalg.norm(q)
         q.setflags(write=False)
         set_frozen(self, "quat", q)

@@ -19,7 +19,7 @@ from humanoid_ik.core.checks import (
     check_points,
     check_vector,
 )
-from humanoid_ik.errors import TrajectoryError
+from humanoid_ik.errors import MotionError
 from humanoid_ik.motion.base import Motion, hermite, set_frozen, smoothstep
 
 __all__ = ["MAX_KNOTS", "OutAndBack", "Points", "RandomWalk", "Waypoints"]
@@ -134,7 +134,7 @@ class Waypoints(Motion):
         lengths = np.linalg.norm(np.diff(ring, axis=0), axis=1)
         if np.any(lengths < 1e-9):
             i = int(np.argmax(lengths < 1e-9))
-            raise TrajectoryError(
+            raise MotionError(
                 "points",
                 f"consecutive points apart (points[{i}] and points[{(i + 1) % len(pts)}] coincide)",
                 self.points.tolist(),
@@ -175,7 +175,7 @@ class RandomWalk(Motion):
     target passes through every knot with velocities by finite differences (zero at
     ``k_0``), so a seed always gives the same path. Knots are kept once drawn, at most
     :data:`MAX_KNOTS` of them: the walk covers :attr:`horizon` seconds, and a time past
-    it is a :class:`~humanoid_ik.errors.TrajectoryError`.
+    it is a :class:`~humanoid_ik.errors.MotionError`.
 
     Args:
         center: box centre ``(3,)`` [m].
@@ -234,10 +234,10 @@ class RandomWalk(Motion):
         """Knot ``i`` ``(3,)`` [m] (drawn in order, so knot ``i`` never depends on the caller).
 
         Raises:
-            TrajectoryError: ``i >= MAX_KNOTS``.
+            MotionError: ``i >= MAX_KNOTS``.
         """
         if i >= MAX_KNOTS:
-            raise TrajectoryError("knot", f"an index < {MAX_KNOTS} (MAX_KNOTS)", i)
+            raise MotionError("knot", f"an index < {MAX_KNOTS} (MAX_KNOTS)", i)
         while len(self._knots) <= i:
             step = self._rng.normal(0.0, self.step, 3)
             self._knots.append(self.reflect(self._knots[-1] + step))
@@ -246,7 +246,7 @@ class RandomWalk(Motion):
     def position(self, t: float) -> NDArray[np.float64]:
         t = max(t, 0.0)
         if not t <= self.horizon:
-            raise TrajectoryError(
+            raise MotionError(
                 "t",
                 f"a time <= {self.horizon:g} s (a random_walk draws at most {MAX_KNOTS} "
                 f"knots, one every interval = {self.interval:g} s)",

@@ -16,7 +16,8 @@ from humanoid_ik.config.specs import Scene
 from humanoid_ik.errors import RenderError
 from humanoid_ik.outputs.atomic import staged_outputs, write_json, write_text
 from humanoid_ik.outputs.trajectory import write_trajectory
-from humanoid_ik.run.metrics import FrameRecord, Metrics
+from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.recording import Recording
 from humanoid_ik.run.runner import SceneRunner
 from humanoid_ik.run.trajectory import Trajectory
 
@@ -70,7 +71,7 @@ class RunOutputs:
     csv: Path
     json: Path
     trajectory: tuple[Path, Path]
-    metrics: Metrics = field(repr=False, compare=False)
+    metrics: Recording = field(repr=False, compare=False)
     recorded: Trajectory = field(repr=False, compare=False)
 
     def files(self) -> list[Path]:
@@ -100,7 +101,7 @@ def check_output_dir(folder: str | os.PathLike) -> Path:
     return p
 
 
-def write_metrics(metrics: Metrics, folder: Path) -> tuple[Path, Path]:
+def write_metrics(metrics: Recording, folder: Path) -> tuple[Path, Path]:
     """Write ``metrics.csv`` and ``metrics.json`` into ``folder``, each atomically."""
     return (
         write_text(folder / "metrics.csv", metrics.csv_text()),
@@ -140,9 +141,8 @@ def record_scene(
     """
     folder = check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
     runner = SceneRunner(scene)
-    recorder = runner.recorder()
-    metrics = runner.run(on_frame=progress_reporter(progress, runner.n_frames), sinks=[recorder])
-    traj = recorder.trajectory(metrics.interrupted)
+    metrics = runner.run(on_frame=progress_reporter(progress, runner.n_frames))
+    traj = metrics.trajectory()
     with staged_outputs(folder) as stage:
         csv_path, json_path = write_metrics(metrics, stage)
         result = RunOutputs(

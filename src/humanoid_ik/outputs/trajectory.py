@@ -20,9 +20,10 @@ import numpy as np
 
 from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.config.sweep_file import model_digest
-from humanoid_ik.core.models import load_model, staged_model
+from humanoid_ik.core.models import load_model
 from humanoid_ik.errors import TrajectoryFileError
 from humanoid_ik.outputs.atomic import atomic_path, write_text
+from humanoid_ik.outputs.stage import staged_model
 from humanoid_ik.run.trajectory import (
     TRAJECTORY_FORMAT,
     TRAJECTORY_VERSION,
@@ -34,6 +35,14 @@ from humanoid_ik.run.trajectory import (
 __all__ = ["load_trajectory", "open_trajectory", "trajectory_csv", "write_trajectory"]
 
 _QUAT = ("qw", "qx", "qy", "qz")
+_SAMPLES = {
+    "orientation_error": "orientation_error_rad",
+    "iterations": "iterations",
+    "solve_time": "solve_time_s",
+    "limit_margin": "limit_margin_rad",
+}
+"""The per-frame sample fields kept beside the targets (array name -> CSV column): a
+file written before they were kept reads without them (:class:`EffectorTrack`)."""
 
 
 def _header(traj: Trajectory) -> dict[str, Any]:
@@ -83,6 +92,8 @@ def _npz_arrays(traj: Trajectory) -> dict[str, Any]:
         out[f"effector{k}_on_target"] = e.on_target
         out[f"effector{k}_reachable"] = e.reachable
         out[f"effector{k}_status"] = np.array(e.status, dtype=np.str_)
+        for name in _SAMPLES:
+            out[f"effector{k}_{name}"] = getattr(e, name)
     return out
 
 
@@ -97,6 +108,7 @@ def _columns(traj: Trajectory) -> list[str]:
             cols += [f"{p}target_{c}" for c in _QUAT]
         cols += [f"{p}achieved_{c}" for c in "xyz"]
         cols += [f"{p}position_error_m", f"{p}on_target", f"{p}reachable", f"{p}status"]
+        cols += [f"{p}{c}" for c in _SAMPLES.values()]
     return cols
 
 
@@ -116,6 +128,7 @@ def trajectory_csv(traj: Trajectory) -> str:
             row += [repr(v) for v in e.achieved[i].tolist()]
             row += [repr(float(e.position_error[i])), int(e.on_target[i]), int(e.reachable[i])]
             row.append(e.status[i])
+            row += [repr(getattr(e, name)[i].item()) for name in _SAMPLES]
         w.writerow(row)
     return buf.getvalue()
 
@@ -167,6 +180,7 @@ def _trajectory(header: dict[str, Any], arrays: dict[str, Any], path: Path) -> T
                     on_target=a["on_target"],
                     reachable=a["reachable"],
                     status=tuple(str(s) for s in a["status"]),
+                    **{name: a.get(name) for name in _SAMPLES},
                 )
             )
         r = header["render"]
@@ -236,6 +250,9 @@ def _read_csv(path: Path) -> Trajectory:
             arrays[key + "on_target"] = np.array(table[f"{p}on_target"], dtype=int) == 1
             arrays[key + "reachable"] = np.array(table[f"{p}reachable"], dtype=int) == 1
             arrays[key + "status"] = table[f"{p}status"]
+            if any(f"{p}{col}" in table for col in _SAMPLES.values()):  # all or none
+                for name, col in _SAMPLES.items():
+                    arrays[key + name] = floats([f"{p}{col}"])[:, 0]
             idx = [list(header["qpos_names"]).index(j) for j in e["joints"]]
             arrays[key + "q"] = arrays["qpos"][:, idx]
     except (KeyError, ValueError) as exc:

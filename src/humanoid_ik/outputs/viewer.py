@@ -26,9 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.config.specs import Scene
-from humanoid_ik.core.models import staged_spec
 from humanoid_ik.core.types import Target
 from humanoid_ik.errors import RenderError
+from humanoid_ik.outputs.stage import staged_spec
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.metrics import FrameRecord
 from humanoid_ik.run.runner import SceneRunner, frame_loop
@@ -61,7 +61,7 @@ def mocap_model(
     path: str | os.PathLike, names: list[str], points: NDArray[np.float64] | None = None
 ) -> tuple[mujoco.MjModel, list[int]]:
     """The model at ``path`` in the default stage (framed on ``points`` too, see
-    :func:`~humanoid_ik.core.models.staged_spec`) with one mocap body per target (a
+    :func:`~humanoid_ik.outputs.stage.staged_spec`) with one mocap body per target (a
     sphere that does not collide), added through ``MjSpec``; returns it and each
     target's mocap index."""
     spec = staged_spec(path, points)
@@ -188,7 +188,7 @@ def view_scene(
     model, mocap = mocap_model(scene.model, [t.name for t in scene.targets], scene.target_points())
     runner = SceneRunner(scene, model)
     live = LiveTargets(runner, mocap)
-    recorder = runner.recorder()
+    recording = runner.recording()
     solvers = runner.solver_labels()
     dt = 1.0 / scene.fps
     before = set(threading.enumerate())
@@ -216,9 +216,10 @@ def view_scene(
     n = 2**62 if duration is None else max(1, round(duration * scene.fps))
     try:
         _, interrupted = frame_loop(
-            n, step, runner.data, [recorder, Show()], stop=lambda: not viewer.is_running()
+            n, step, runner.data, [recording, Show()], stop=lambda: not viewer.is_running()
         )
-        traj = recorder.trajectory(interrupted)
+        recording.interrupted = interrupted
+        traj = recording.trajectory()
         files = None if out_dir is None else write_trajectory(traj, out_dir)
     finally:
         viewer.close()

@@ -1,30 +1,25 @@
-"""What a scene run measured: one sample per effector and frame, and the run's summary.
+"""What a scene run measured in one frame: one sample per effector, and the columns of
+``metrics.csv``.
 
-The runner fills a :class:`Metrics` frame by frame (it is one of the runner's frame
-sinks); the outputs layer writes it to files.
+The run's frames are kept by :class:`~humanoid_ik.run.recording.Recording`, the one
+table of a run (``Metrics`` is its former name, kept as a deprecated alias).
 """
 
 from __future__ import annotations
 
-import csv
-import io
-import math
-from collections.abc import Sequence
+import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.config.scene import Scene
-
-__all__ = ["CSV_FIELDS", "EffectorSample", "FrameRecord", "Metrics"]
+__all__ = ["CSV_FIELDS", "EffectorSample", "FrameRecord"]
 
 
-@dataclass(frozen=True)
-class EffectorSample:
-    """What one effector did in one frame (measured on the scene's ``MjData``).
+class EffectorSample(NamedTuple):
+    """What one effector did in one frame (measured on the scene's ``MjData``); a named
+    tuple: made once per effector and frame, read-only.
 
     Attributes:
         effector: the site name.
@@ -99,123 +94,15 @@ CSV_FIELDS = [
 ]
 
 
-class Metrics:
-    """Every frame's record of a run, with CSV/JSON export and a summary.
+def __getattr__(name: str) -> Any:
+    if name == "Metrics":
+        warnings.warn(
+            "humanoid_ik.run.metrics.Metrics is deprecated; use "
+            "humanoid_ik.run.recording.Recording",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        from humanoid_ik.run.recording import Recording
 
-    Args:
-        scene: the scene that ran.
-        solvers: the solver label of each effector (scene order).
-
-    Attributes:
-        frames: every frame's record, in order.
-        frame_times: wall time of each frame in the runner's loop [s] (solve,
-            ``mj_forward``, measuring and every output taking the frame); not exported.
-        interrupted: Ctrl-C stopped the run early.
-    """
-
-    def __init__(self, scene: Scene, solvers: Sequence[str]):
-        self.scene = scene
-        self.solvers = list(solvers)
-        self.frames: list[FrameRecord] = []
-        self.frame_times: list[float] = []
-        self.interrupted = False
-
-    def __len__(self) -> int:
-        return len(self.frames)
-
-    def append(self, frame: FrameRecord) -> None:
-        """Add a frame's record."""
-        self.frames.append(frame)
-
-    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
-        """Add a frame's record (as a sink of the runner's loop; ``data`` is not needed)."""
-        self.frames.append(record)
-
-    def series(self, effector: int, attribute: str) -> NDArray[np.float64]:
-        """One attribute of one effector over the frames ``(frames,)`` (``None`` -> NaN)."""
-        vals = [getattr(f.samples[effector], attribute) for f in self.frames]
-        return np.array([math.nan if v is None else v for v in vals], dtype=np.float64)
-
-    def rows(self) -> list[dict[str, Any]]:
-        """One dict per frame and effector, keyed like the CSV columns."""
-        out = []
-        for f in self.frames:
-            for s in f.samples:
-                out.append(
-                    {
-                        "frame": f.index,
-                        "time_s": f.time,
-                        "effector": s.effector,
-                        "target_name": s.target_name,
-                        "task": s.task,
-                        "target_x": float(s.target[0]),
-                        "target_y": float(s.target[1]),
-                        "target_z": float(s.target[2]),
-                        "achieved_x": float(s.achieved[0]),
-                        "achieved_y": float(s.achieved[1]),
-                        "achieved_z": float(s.achieved[2]),
-                        "position_error_m": s.position_error,
-                        "orientation_error_rad": s.orientation_error,
-                        "iterations": s.iterations,
-                        "solve_time_s": s.solve_time,
-                        "limit_margin_rad": s.limit_margin,
-                        "reachable": s.reachable,
-                        "on_target": s.on_target,
-                        "status": s.status,
-                    }
-                )
-        return out
-
-    def summary(self) -> list[dict[str, Any]]:
-        """Per effector: frames, reachable frames, share on target while reachable, worst
-        and median position error while reachable [m], median and worst solve time [s]."""
-        out = []
-        for k, eff in enumerate(self.scene.effectors):
-            err = self.series(k, "position_error")
-            reach = self.series(k, "reachable").astype(bool)
-            on = self.series(k, "on_target").astype(bool)
-            st = self.series(k, "solve_time")
-            er = err[reach]
-            out.append(
-                {
-                    "effector": eff.name,
-                    "target": eff.target,
-                    "task": eff.task,
-                    "solver": self.solvers[k],
-                    "frames": len(self.frames),
-                    "reachable_frames": int(reach.sum()),
-                    "on_target_when_reachable": float(on[reach].mean()) if er.size else None,
-                    "max_position_error_reachable_m": float(er.max()) if er.size else None,
-                    "median_position_error_reachable_m": float(np.median(er)) if er.size else None,
-                    "median_solve_time_s": float(np.median(st)) if st.size else None,
-                    "max_solve_time_s": float(st.max()) if st.size else None,
-                    "max_iterations": int(self.series(k, "iterations").max()) if self.frames else 0,
-                }
-            )
-        return out
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: the scene, the summary and every sample."""
-        sc = self.scene
-        return {
-            "scene": sc.name,
-            "source": sc.source,
-            "fps": sc.fps,
-            "frames": len(self.frames),
-            "interrupted": self.interrupted,
-            "effectors": [
-                {e.kind: e.name, "target": e.target, "task": e.task, "solver": s}
-                for e, s in zip(sc.effectors, self.solvers, strict=True)
-            ],
-            "summary": self.summary(),
-            "samples": self.rows(),
-        }
-
-    def csv_text(self) -> str:
-        """The samples as CSV text (one row per frame and effector)."""
-        buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, lineterminator="\n")
-        w.writeheader()
-        for row in self.rows():
-            w.writerow({k: ("" if v is None else v) for k, v in row.items()})
-        return buf.getvalue()
+        return Recording
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

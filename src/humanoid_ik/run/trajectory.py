@@ -1,9 +1,10 @@
-"""The motion of a scene run: every frame's full ``qpos`` with the targets and each
-effector's state, as a typed :class:`Trajectory`, recorded by a frame sink.
+"""What the trajectory files of a run hold: every frame's full ``qpos`` with the targets
+and each effector's samples, as a typed :class:`Trajectory`.
 
-:class:`TrajectoryRecorder` is a sink of :meth:`SceneRunner.run
-<humanoid_ik.run.runner.SceneRunner.run>` (the one frame loop): per frame it copies
-``data.qpos`` and the frame's record. :func:`check_trajectory_model` says whether a
+A run's :class:`~humanoid_ik.run.recording.Recording` makes one
+(:meth:`~humanoid_ik.run.recording.Recording.trajectory`); a replay turns its frames
+back into the run's records, nothing lost (:meth:`Trajectory.record`).
+:func:`check_trajectory_model` says whether a
 trajectory fits a model (same joints in the same ``qpos`` order, same model digest).
 The files (``trajectory.npz``, ``trajectory.csv``) are written and read by
 :mod:`humanoid_ik.outputs.trajectory`; ``docs/formats.md`` documents them.
@@ -12,18 +13,17 @@ The files (``trajectory.npz``, ``trajectory.csv``) are written and read by
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import warnings
 from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.config.specs import RenderSpec, Scene
-from humanoid_ik.config.sweep_file import model_digest
-from humanoid_ik.core.chain import Chain
+from humanoid_ik.config.specs import RenderSpec
+from humanoid_ik.core.robot import joint_name
 from humanoid_ik.errors import TrajectoryFileError
-from humanoid_ik.motion import TargetTrack
 from humanoid_ik.run.metrics import EffectorSample, FrameRecord
 
 __all__ = [
@@ -31,7 +31,6 @@ __all__ = [
     "TRAJECTORY_VERSION",
     "EffectorTrack",
     "Trajectory",
-    "TrajectoryRecorder",
     "check_trajectory_model",
     "qpos_names",
 ]
@@ -51,7 +50,7 @@ def qpos_names(model: mujoco.MjModel) -> list[str]:
     (a joint without a name is called ``joint<id>``)."""
     out: list[str] = []
     for j in range(model.njnt):
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+        name = joint_name(model, j)
         kind = int(model.jnt_type[j])
         if kind == mujoco.mjtJoint.mjJNT_FREE:
             out += [f"{name}:{c}" for c in _FREE]
@@ -93,6 +92,13 @@ class EffectorTrack:
         position_error: ``(F,)`` [m], as in the metrics.
         on_target, reachable: ``(F,)`` booleans, as in the metrics.
         status: the solver's status per frame ``(F,)``.
+        orientation_error: ``(F,)`` [rad], NaN where the metrics have none.
+        iterations: the solver's iterations ``(F,)``.
+        solve_time: the solver's wall time ``(F,)`` [s].
+        limit_margin: the nearest joint's distance to its range end ``(F,)`` [rad].
+
+    The last four are in files from this release on; a file without them reads as NaN
+    (0 iterations).
     """
 
     site: str
@@ -108,6 +114,10 @@ class EffectorTrack:
     on_target: NDArray[np.bool_]
     reachable: NDArray[np.bool_]
     status: tuple[str, ...]
+    orientation_error: NDArray[np.float64] | None = None
+    iterations: NDArray[np.int64] | None = None
+    solve_time: NDArray[np.float64] | None = None
+    limit_margin: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "joints", tuple(self.joints))
@@ -130,6 +140,19 @@ class EffectorTrack:
                 )
             flags.setflags(write=False)
             object.__setattr__(self, name, flags)
+        for name in ("orientation_error", "solve_time", "limit_margin"):
+            value = getattr(self, name)
+            value = np.full(n, math.nan) if value is None else value
+            object.__setattr__(self, name, _floats(value, (n,), f"effector '{self.site}' {name}"))
+        its = np.zeros(n) if self.iterations is None else self.iterations
+        its = _floats(its, (n,), f"effector '{self.site}' iterations")
+        if not (np.isfinite(its).all() and (its >= 0).all() and (its == np.round(its)).all()):
+            raise TrajectoryFileError(
+                f"effector '{self.site}' iterations: expected whole numbers >= 0"
+            )
+        its = its.astype(np.int64)
+        its.setflags(write=False)
+        object.__setattr__(self, "iterations", its)
 
 
 @dataclass(frozen=True)
@@ -152,7 +175,7 @@ class Trajectory:
         render: how the scene is filmed (replay uses it unless told otherwise).
         interrupted: Ctrl-C stopped the run early.
         stage_points: the points ``(k, 3)`` [m] the default stage's cameras framed
-            besides the model (:func:`~humanoid_ik.core.models.staged_model`; the
+            besides the model (:func:`~humanoid_ik.outputs.stage.staged_model`; the
             scene's target paths), so a replay builds the same stage.
     """
 
@@ -205,32 +228,34 @@ class Trajectory:
         return self.qpos[:, self.qpos_names.index(name)]
 
     def record(self, index: int) -> FrameRecord:
-        """Frame ``index`` as the runner's :class:`FrameRecord` would have it (solver
-        iterations, solve time, limit margin and orientation error are not kept: 0,
-        0, NaN, ``None``)."""
-        samples = tuple(
-            EffectorSample(
-                effector=e.site,
-                target_name=e.target_name,
-                task=e.task,
-                target=e.target[index].copy(),
-                achieved=e.achieved[index].copy(),
-                position_error=float(e.position_error[index]),
-                orientation_error=None,
-                iterations=0,
-                solve_time=0.0,
-                limit_margin=math.nan,
-                reachable=bool(e.reachable[index]),
-                on_target=bool(e.on_target[index]),
-                status=e.status[index],
-            )
-            for e in self.effectors
-        )
+        """Frame ``index`` as the runner's :class:`FrameRecord` had it (a file written
+        before these fields were kept gives NaN, ``None`` and 0 for them)."""
+        samples = tuple(_sample(e, index) for e in self.effectors)
         return FrameRecord(index, float(self.time[index]), samples)
 
     def quats(self, index: int) -> list[NDArray[np.float64] | None]:
         """Each effector's target orientation (wxyz) at frame ``index``, or ``None``."""
         return [None if e.target_quat is None else e.target_quat[index] for e in self.effectors]
+
+
+def _sample(e: EffectorTrack, index: int) -> EffectorSample:
+    """Effector track ``e``'s sample at frame ``index``, as the run measured it."""
+    orient = float(e.orientation_error[index])  # type: ignore[index]
+    return EffectorSample(
+        effector=e.site,
+        target_name=e.target_name,
+        task=e.task,
+        target=e.target[index].copy(),
+        achieved=e.achieved[index].copy(),
+        position_error=float(e.position_error[index]),
+        orientation_error=None if math.isnan(orient) else orient,
+        iterations=int(e.iterations[index]),  # type: ignore[index]
+        solve_time=float(e.solve_time[index]),  # type: ignore[index]
+        limit_margin=float(e.limit_margin[index]),  # type: ignore[index]
+        reachable=bool(e.reachable[index]),
+        on_target=bool(e.on_target[index]),
+        status=e.status[index],
+    )
 
 
 def check_trajectory_model(traj: Trajectory, model: mujoco.MjModel, digest: str | None) -> None:
@@ -262,87 +287,19 @@ def check_trajectory_model(traj: Trajectory, model: mujoco.MjModel, digest: str 
         )
 
 
-class TrajectoryRecorder:
-    """The frame sink that records a run's :class:`Trajectory`.
-
-    Args:
-        scene: the scene that runs.
-        model: the scene's model.
-        chains: each effector's chain (scene order).
-        targets: each effector's target track (scene order), for pose targets'
-            orientation.
-        solvers: each effector's solver label.
-    """
-
-    def __init__(
-        self,
-        scene: Scene,
-        model: mujoco.MjModel,
-        chains: Sequence[Chain],
-        targets: Sequence[TargetTrack],
-        solvers: Sequence[str],
-    ):
-        self.scene = scene
-        self.model = model
-        self.chains = list(chains)
-        self.targets = list(targets)
-        self.solvers = list(solvers)
-        self.qpos: list[NDArray[np.float64]] = []
-        self.records: list[FrameRecord] = []
-        self.quats: list[list[NDArray[np.float64] | None]] = []
-
-    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
-        """Keep frame ``record``'s ``qpos``, record and target orientations."""
-        self.qpos.append(data.qpos.copy())
-        self.records.append(record)
-        self.quats.append(
-            [
-                None if t.orientation is None else np.asarray(t.orientation.quat_at(record.time))
-                for t in self.targets
-            ]
+def __getattr__(name: str) -> Any:
+    if name == "TrajectoryRecorder":
+        warnings.warn(
+            "humanoid_ik.run.trajectory.TrajectoryRecorder is deprecated; the runner's "
+            "humanoid_ik.run.recording.Recording records the trajectory",
+            DeprecationWarning,
+            stacklevel=2,
         )
+        from humanoid_ik.run.recording import Recording
 
-    def _track(self, k: int, qpos: NDArray[np.float64]) -> EffectorTrack:
-        eff, chain = self.scene.effectors[k], self.chains[k]
-        samples = [r.samples[k] for r in self.records]
-        n = len(samples)
-        posed = self.targets[k].orientation is not None
-        return EffectorTrack(
-            site=eff.name,
-            target_name=eff.target,
-            task=eff.task,
-            solver=self.solvers[k],
-            joints=tuple(chain.joint_names),
-            q=qpos[:, chain.qpos_adr] if n else np.zeros((0, chain.n)),
-            target=np.array([s.target for s in samples]).reshape(n, 3),
-            target_quat=np.array([q[k] for q in self.quats]).reshape(n, 4) if posed else None,
-            achieved=np.array([s.achieved for s in samples]).reshape(n, 3),
-            position_error=np.array([s.position_error for s in samples], dtype=np.float64),
-            on_target=np.array([s.on_target for s in samples], dtype=bool),
-            reachable=np.array([s.reachable for s in samples], dtype=bool),
-            status=tuple(s.status for s in samples),
-        )
+        def recorder(scene: Any, model: Any, chains: Any, targets: Any, solvers: Any) -> Any:
+            """``TrajectoryRecorder(scene, model, chains, targets, solvers)``."""
+            return Recording(scene, solvers, model, chains, targets)
 
-    def trajectory(self, interrupted: bool = False) -> Trajectory:
-        """The frames recorded so far as a :class:`Trajectory`."""
-        m = self.model
-        qpos = np.array(self.qpos, dtype=np.float64).reshape(len(self.qpos), m.nq)
-        sc = self.scene
-        return Trajectory(
-            time=np.array([r.time for r in self.records], dtype=np.float64),
-            qpos=qpos,
-            qpos_names=tuple(qpos_names(m)),
-            joint_names=tuple(
-                mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
-                for j in range(m.njnt)
-            ),
-            effectors=tuple(self._track(k, qpos) for k in range(len(sc.effectors))),
-            fps=float(sc.fps),
-            scene=sc.name,
-            scene_file="" if sc.path is None else str(sc.path),
-            model_file=str(sc.model),
-            model_sha256=model_digest(sc.model),
-            render=sc.render,
-            interrupted=interrupted,
-            stage_points=sc.target_points(),
-        )
+        return recorder
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

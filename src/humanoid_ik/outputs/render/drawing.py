@@ -319,15 +319,32 @@ class Film:
         quats: each effector's target orientation at a frame, for pose targets' axes
             (:func:`track_quats` of a scene's tracks, or a trajectory's).
         images: where each picture goes.
+        staged: the renderer films a staged copy of the run's model
+            (``outputs/stage.py``): each frame's ``qpos`` and mocap poses are copied
+            into the copy's own data, and ``mj_forward`` runs there.
     """
 
-    def __init__(self, renderer: FrameRenderer, quats: Quats, images: Sequence[ImageSink]):
+    def __init__(
+        self,
+        renderer: FrameRenderer,
+        quats: Quats,
+        images: Sequence[ImageSink],
+        staged: bool = False,
+    ):
         self.renderer = renderer
         self.quats = quats
         self.images = list(images)
+        self._view = mujoco.MjData(renderer.model) if staged else None
 
     def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
         """Render frame ``record`` of ``data`` and hand it to every image sink."""
+        view = self._view
+        if view is not None:  # the run's state in the staged model
+            view.qpos[:] = data.qpos
+            view.mocap_pos[:] = data.mocap_pos
+            view.mocap_quat[:] = data.mocap_quat
+            mujoco.mj_forward(self.renderer.model, view)
+            data = view
         image = self.renderer.render(data, record, self.quats(record))
         for sink in self.images:
             sink.add_image(record, image)

@@ -18,6 +18,7 @@ import mujoco
 
 from humanoid_ik.config.scene import Scene
 from humanoid_ik.config.specs import RenderSpec
+from humanoid_ik.core.models import needs_stage
 from humanoid_ik.outputs.atomic import staged_outputs
 from humanoid_ik.outputs.record import (
     check_output_dir,
@@ -30,8 +31,9 @@ from humanoid_ik.outputs.render.drawing import Film, FrameRenderer, Quats, track
 from humanoid_ik.outputs.render.plots import plot_metrics
 from humanoid_ik.outputs.render.stills import GifFrames, Stills, sheet_indices, snapshot_plan
 from humanoid_ik.outputs.render.video import VideoWriter
+from humanoid_ik.outputs.stage import staged_model
 from humanoid_ik.outputs.trajectory import write_trajectory
-from humanoid_ik.run.metrics import Metrics
+from humanoid_ik.run.recording import Recording
 from humanoid_ik.run.replay import TrajectoryPlayer
 from humanoid_ik.run.runner import FrameSink, SceneRunner
 from humanoid_ik.run.trajectory import Trajectory
@@ -94,7 +96,7 @@ class RenderOutputs(FilmOutputs):
     json: Path
     plot: Path | None
     total_time: float
-    metrics: Metrics = field(repr=False, compare=False)
+    metrics: Recording = field(repr=False, compare=False)
     trajectory: tuple[Path, ...] = ()
 
     def files(self) -> list[Path]:
@@ -124,9 +126,11 @@ def _film(
     video: bool,
     quats: Quats,
     run: Callable[[FrameSink], object],
+    staged: bool = False,
 ) -> tuple[_Filmed, Backend]:
     """Film ``n`` frames at ``fps``: ``run(film)`` runs the frame loop with the film as a
-    sink; then the video is finished and the stills and the GIF written.
+    sink; then the video is finished and the stills and the GIF written. ``staged``:
+    ``model`` is a staged copy of the run's (see :class:`Film`).
 
     A failed run leaves no video under its final name (its temporary file is removed)
     and the exception propagates; Ctrl-C (handled by the frame loop) keeps the frames so
@@ -140,7 +144,7 @@ def _film(
         writer = VideoWriter(folder / f"{name}.mp4", rs.width, rs.height, fps) if video else None
         images = [sink for sink in (writer, stills, gif) if sink is not None]
         try:
-            run(Film(fr, quats, images))
+            run(Film(fr, quats, images, staged))
         except BaseException:  # a failed run leaves no video under the final name
             if writer is not None:
                 writer.close(abort=True)
@@ -188,16 +192,16 @@ def render_scene(
     folder = check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
     runner = SceneRunner(scene)
     n = runner.n_frames
-    recorder = runner.recorder() if trajectory else None
-    done: list[Metrics] = []
+    done: list[Recording] = []
 
     def run(film: FrameSink) -> None:
-        sinks = [film] if recorder is None else [film, recorder]
-        done.append(runner.run(on_frame=progress_reporter(progress, n), sinks=sinks))
+        done.append(runner.run(on_frame=progress_reporter(progress, n), sinks=[film]))
 
     with staged_outputs(folder) as stage:
+        staged = needs_stage(runner.model)  # the solvers run on the model as it is
+        film_model = staged_model(scene.model, scene.target_points()) if staged else runner.model
         filmed, backend = _film(
-            runner.model,
+            film_model,
             scene.render,
             scene.fps,
             n,
@@ -206,13 +210,14 @@ def render_scene(
             video,
             track_quats(runner.targets),
             run,
+            staged,
         )
         metrics = done[0]
         csv_path, json_path = write_metrics(metrics, stage)
         plot_path = plot_metrics(metrics, stage / "metrics.png") if plot and len(metrics) else None
         traj_files: tuple[Path, ...] = ()
-        if recorder is not None:
-            traj_files = write_trajectory(recorder.trajectory(metrics.interrupted), stage)
+        if trajectory:
+            traj_files = write_trajectory(metrics.trajectory(), stage)
         result = RenderOutputs(
             folder=stage,
             frames=len(metrics),

@@ -9,12 +9,12 @@ import numpy as np
 
 from humanoid_ik.outputs.atomic import atomic_path
 from humanoid_ik.outputs.render.drawing import TRAIL_COLORS
-from humanoid_ik.run.metrics import Metrics
+from humanoid_ik.run.recording import Recording
 
 __all__ = ["plot_metrics"]
 
 
-def plot_metrics(metrics: Metrics, path: str | os.PathLike) -> Path:
+def plot_metrics(metrics: Recording, path: str | os.PathLike) -> Path:
     """Plot position error [mm] (log scale) and solve time [ms] over time, per effector,
     with the frames where a target is out of reach shaded; written atomically as PNG.
 

@@ -1,0 +1,262 @@
+"""A parsed scene checked against its model: the model it runs on, its chains (one robot
+state for all effectors), the solvers fit them, the camera and frame size, the sizes and
+the collision pairs. ``config/scene.py`` parses the file and calls :func:`check_scene`.
+
+Every mistake raises :class:`~humanoid_ik.errors.SceneError` naming the file, the key
+and what was expected.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+
+from humanoid_ik.config.specs import (
+    MAX_CONTACT_SHEET,
+    MAX_FPS,
+    MAX_FRAMES,
+    MAX_IMAGE_SIZE,
+    MAX_SNAPSHOTS,
+    MAX_TRAIL,
+    MIN_FPS,
+    MIN_IMAGE_SIZE,
+    Scene,
+    SolverSpec,
+    moves_several,
+)
+from humanoid_ik.config.toml import TomlReader
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.checks import check_int, check_number
+from humanoid_ik.core.models import load_model, staged_cameras
+from humanoid_ik.core.robot import Robot
+from humanoid_ik.errors import HumanoidIKError, SceneError
+from humanoid_ik.motion import MAX_KNOTS, RandomWalk
+from humanoid_ik.solvers import SOLVERS
+from humanoid_ik.solvers.mink.options import collision_pairs_problem
+
+__all__ = [
+    "RENDER_EXPECTED",
+    "check_collision_pairs",
+    "check_duration",
+    "check_scene",
+    "frame_size_ok",
+    "scene_model",
+    "takes_collision_pairs",
+]
+
+_SIZE = f"an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE} (pixels)"
+RENDER_EXPECTED = {
+    "width": _SIZE,
+    "height": _SIZE,
+    "camera": "a camera name",
+    "trail": f"a number >= 0 and <= {MAX_TRAIL:g} (seconds)",
+    "gif": "true or false",
+    "snapshots": f"a list of at most {MAX_SNAPSHOTS} times >= 0 (seconds)",
+    "contact_sheet": f"an integer >= 0 and <= {MAX_CONTACT_SHEET}",
+}
+"""What each ``[render]`` key expects, as error messages say it."""
+
+
+def frame_size_ok(v: int) -> bool:
+    """An even frame width or height within :data:`MIN_IMAGE_SIZE` and
+    :data:`MAX_IMAGE_SIZE`."""
+    return MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v % 2 == 0
+
+
+def check_duration(r: TomlReader, duration: float, fps: float) -> None:
+    """``duration x fps`` is at most :data:`MAX_FRAMES` frames."""
+    if max(1, round(duration * fps)) > MAX_FRAMES:
+        raise r.expect(
+            "duration",
+            f"a number > 0 and <= {MAX_FRAMES / fps:g} (at most {MAX_FRAMES} frames at "
+            f"{fps:g} fps)",
+            duration,
+        )
+
+
+def takes_collision_pairs(solver: str) -> bool:
+    """Whether solver ``solver`` has a ``collision_pairs`` option (``mink``)."""
+    return any(f.name == "collision_pairs" for f in dataclasses.fields(SOLVERS[solver].Options))
+
+
+def _solver_specs(scene: Scene) -> list[tuple[str, SolverSpec]]:
+    """Every solver table of ``scene`` with its key: ``solver``, then each effector's own."""
+    specs = [("solver", scene.solver)]
+    specs += [
+        (f"effectors[{i}].solver", e.solver)
+        for i, e in enumerate(scene.effectors)
+        if e.solver is not None
+    ]
+    return specs
+
+
+def check_collision_pairs(scene: Scene, model: mujoco.MjModel) -> None:
+    """Every geom named in a solver's ``collision_pairs`` (``[solver] options`` or an
+    effector's ``solver``) is a geom of ``model``.
+
+    Raises:
+        SceneError: one line naming the key
+            (``solver.options.collision_pairs[0][1][2]``), the name and the model's geoms.
+    """
+    r = TomlReader(scene.source, SceneError)
+    geom = mujoco.mjtObj.mjOBJ_GEOM
+    for key, spec in _solver_specs(scene):
+        pairs = spec.options.get("collision_pairs")
+        if not pairs or collision_pairs_problem(pairs) is not None:
+            continue  # none, or a shape the solver refuses with its own message
+        for i, pair in enumerate(pairs):
+            for k, group in enumerate(pair):
+                one = isinstance(group, str)
+                for n, name in enumerate([group] if one else group):
+                    if mujoco.mj_name2id(model, geom, name) >= 0:
+                        continue
+                    found = [mujoco.mj_id2name(model, geom, g) for g in range(model.ngeom)]
+                    valid = ", ".join(sorted(g for g in found if g)) or "none"
+                    path = f"{key}.options.collision_pairs[{i}][{k}]" + ("" if one else f"[{n}]")
+                    raise r.expect(path, f"a geom of the model ({valid})", name)
+
+
+def _check_effector(
+    r: TomlReader,
+    scene: Scene,
+    robot: Robot,
+    i: int,
+    owner: dict[str, int],
+) -> Chain:
+    """Effector ``i``'s chain once its site, joints and solver fit; ``owner`` (joint ->
+    effector index) gains its joints."""
+    model = robot.model
+    eff = scene.effectors[i]
+    key = f"effectors[{i}]"
+    objtype, count = {
+        "site": (mujoco.mjtObj.mjOBJ_SITE, model.nsite),
+        "body": (mujoco.mjtObj.mjOBJ_BODY, model.nbody),
+    }[eff.kind]
+    if mujoco.mj_name2id(model, objtype, eff.name) < 0:
+        found = [mujoco.mj_id2name(model, objtype, k) for k in range(count)]
+        valid = ", ".join(sorted(s for s in found if s)) or "none"
+        raise r.expect(f"{key}.{eff.kind}", f"a {eff.kind} of the model ({valid})", eff.name)
+    try:
+        chain = Chain(robot, eff.site, eff.joints, body=eff.body)
+    except HumanoidIKError as exc:
+        raise r.fail(f"{key}.joints", str(exc)) from None
+    for j in chain.joint_names:
+        if j in owner:
+            raise r.fail(
+                f"{key}.joints",
+                f"joint '{j}' is already moved by effectors[{owner[j]}]; expected "
+                "effectors with separate joints (set joints = [...])",
+            )
+        owner[j] = i
+    spec = scene.solver_for(eff)
+    target = scene.target(eff.target)
+    where = f"{key}.solver.name" if eff.solver is not None else "solver.name"
+    if eff.task == "reach" and spec.name == "look_at":
+        raise r.fail(
+            where,
+            f"solver 'look_at' aims a site at a point; {key} ({eff.name}) reaches "
+            "(task = 'reach'); expected a reaching solver or task = 'look_at'",
+        )
+    solver = spec.make()
+    several = moves_several(spec.name)
+    if eff.task == "look_at" and solver.reaches and not several:
+        raise r.fail(
+            where,
+            f"solver '{spec.name}' moves a site onto a point; {key} ({eff.name}) aims "
+            "(task = 'look_at'); expected 'look_at' or 'mink'",
+        )
+    reason = None if several else solver.applicable(chain, target.is_pose)
+    if reason is not None:
+        raise r.fail(where, f"solver '{spec.name}' cannot drive {key} ({eff.name}): {reason}")
+    return chain
+
+
+def _check_render(r: TomlReader, scene: Scene, model: mujoco.MjModel) -> None:
+    """The camera exists (the model's or the default stage's) and the frame fits the
+    model's off-screen buffer."""
+    cams = staged_cameras(model)
+    if scene.render.camera not in cams:
+        raise r.expect(
+            "render.camera", f"one of {', '.join(cams) or '(no cameras)'}", scene.render.camera
+        )
+    offw, offh = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
+    for k, v, lim in (("width", scene.render.width, offw), ("height", scene.render.height, offh)):
+        if MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v > lim:
+            raise r.expect(
+                f"render.{k}", f"at most {lim} (the model's off-screen buffer, visual/global)", v
+            )
+        if not frame_size_ok(v):
+            raise r.expect(f"render.{k}", RENDER_EXPECTED[k], v)
+
+
+def _check_sizes(r: TomlReader, scene: Scene) -> None:
+    """Every size-like value within its bound (for a scene built in code; a scene file's
+    values are checked as they are read): frame rate, frames, trail, contact sheet,
+    snapshots, and each motion reaching the last frame."""
+    fps = r.call("", check_number, "fps", scene.fps, low=MIN_FPS, high=MAX_FPS)
+    duration = r.call("", check_number, "duration", scene.duration, low=0.0, strict=True)
+    check_duration(r, duration, fps)
+    rs = scene.render
+    r.call("render", check_number, "trail", rs.trail, low=0.0, high=MAX_TRAIL)
+    r.call("render", check_int, "contact_sheet", rs.contact_sheet, low=0, high=MAX_CONTACT_SHEET)
+    if len(rs.snapshots) > MAX_SNAPSHOTS:
+        raise r.expect("render.snapshots", f"at most {MAX_SNAPSHOTS} times", len(rs.snapshots))
+    last = (scene.n_frames - 1) / fps
+    for i, track in enumerate(scene.targets):
+        m = track.motion
+        if last > m.horizon and isinstance(m, RandomWalk):
+            raise r.expect(
+                f"targets[{i}].motion.interval",
+                f"a number >= {last / (MAX_KNOTS - 3):.3g} (a random_walk draws at most "
+                f"{MAX_KNOTS} knots, and this one runs {last:g} s)",
+                m.interval,
+            )
+        if last > m.horizon:
+            raise r.fail(
+                f"targets[{i}].motion", f"reaches {m.horizon:g} s; the scene runs {last:g} s"
+            )
+
+
+def scene_model(scene: Scene) -> mujoco.MjModel:
+    """The model a scene runs on: its MJCF or URDF file as the user wrote it (a film of
+    it adds the default stage in the rendering layer, ``outputs/stage.py``).
+
+    Raises:
+        SceneError: the model file does not compile (``model`` key).
+    """
+    try:
+        return load_model(scene.model)
+    except HumanoidIKError as exc:
+        raise SceneError(scene.source, "model", str(exc)) from None
+
+
+def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain]:
+    """Check a scene against its model and return one chain per effector.
+
+    Checks every size-like value is within its bound (``docs/limits.md``), the sites and
+    joints exist, no two effectors share a joint, the camera exists, the frame fits
+    MuJoCo's off-screen buffer, and each effector's solver can solve its chain and task.
+
+    Args:
+        scene: the scene.
+        model: its compiled model (:func:`scene_model` when ``None``).
+
+    Returns:
+        The chains, in effector order, all on one robot state over ``model``.
+
+    Raises:
+        SceneError: naming the scene file, the key and what was expected.
+    """
+    r = TomlReader(scene.source, SceneError)
+    _check_sizes(r, scene)
+    if model is None:
+        model = scene_model(scene)
+    robot = Robot(model)
+    owner: dict[str, int] = {}
+    chains = [_check_effector(r, scene, robot, i, owner) for i in range(len(scene.effectors))]
+    check_collision_pairs(scene, model)
+    _check_render(r, scene, model)
+    return chains
+
+
