@@ -258,5 +258,3 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
     check_collision_pairs(scene, model)
     _check_render(r, scene, model)
     return chains
-
-

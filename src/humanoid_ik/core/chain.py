@@ -418,6 +418,24 @@ class Chain:
         self.set_q(keep)
         return anchors, axes / np.linalg.norm(axes, axis=1, keepdims=True)
 
+    def reach(self) -> tuple[NDArray[np.float64], float]:
+        """The chain's base point ``(3,)`` [m] and an upper bound of its reach [m].
+
+        The base is the first joint's anchor; the reach is the length of the polyline
+        through the distinct joint anchors to the end effector, ``sum |a_{k+1} - a_k| +
+        |p - a_last|``, measured at the chain's current pose (joints are hinges, so these
+        distances never change); the chain is left as it was.
+        """
+        self.set_q(self.q)
+        anchors, _ = self.joint_axes()
+        pts = [anchors[0]]
+        for a in anchors[1:]:
+            if float(np.linalg.norm(a - pts[-1])) > 1e-9:
+                pts.append(a)
+        pts.append(self.position.copy())
+        reach = float(sum(np.linalg.norm(b - a) for a, b in zip(pts[:-1], pts[1:], strict=True)))
+        return anchors[0].copy(), reach
+
     def load(self, data: mujoco.MjData) -> None:
         """Copy the caller's ``qpos`` (every joint) into the robot's scratch data
         (:meth:`Robot.load`). ``data`` is only read.

@@ -28,7 +28,6 @@ from humanoid_ik.core.models import (
 )
 from humanoid_ik.core.robot import joint_name
 from humanoid_ik.errors import HumanoidIKError
-from humanoid_ik.run.runner import chain_reach
 from humanoid_ik.solvers import SOLVERS
 
 __all__ = [
@@ -240,7 +239,7 @@ def _effector(model: mujoco.MjModel, kind: str, name: str) -> tuple[EffectorInfo
         chain = _chain(model, kind, name)
     except HumanoidIKError as exc:
         return EffectorInfo(kind, name, error=str(exc)), []
-    base, reach = chain_reach(chain)
+    base, reach = chain.reach()
     joints = tuple(_joint_info(model, int(j)) for j in chain.joint_ids)
     b = (float(base[0]), float(base[1]), float(base[2]))
     warnings = []

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 from humanoid_ik.config.specs import RenderSpec
-from humanoid_ik.config.sweep_file import model_digest
+from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model
 from humanoid_ik.errors import TrajectoryFileError
 from humanoid_ik.outputs.atomic import atomic_path, write_text

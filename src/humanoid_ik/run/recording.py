@@ -21,8 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.config.specs import Scene
-from humanoid_ik.config.sweep_file import model_digest
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.robot import joint_name
 from humanoid_ik.motion import TargetTrack
 from humanoid_ik.run.metrics import CSV_FIELDS, FrameRecord
@@ -68,6 +68,9 @@ class Recording:
         self._quats: list[list[NDArray[np.float64] | None]] = []
         self.frame_times: list[float] = []
         self.interrupted = False
+
+    needs_forward = False
+    """A recording reads ``qpos`` only: the runner may skip ``mj_forward`` for it."""
 
     def __len__(self) -> int:
         return len(self.frames)

@@ -1,4 +1,4 @@
-"""Run a scene: per frame move the targets, solve, write ``qpos``, ``mj_forward``, measure.
+"""Run a scene: per frame move the targets, solve, write ``qpos``, update MuJoCo, measure.
 
 Per frame ``i`` at ``t = i / fps``:
 
@@ -7,7 +7,10 @@ Per frame ``i`` at ``t = i / fps``:
    start; the first frame starts at the ``home`` keyframe), in the one robot state all
    the scene's chains share (:class:`~humanoid_ik.core.robot.Robot`): nothing is
    copied between chains;
-3. the solutions are in the robot's ``MjData.qpos`` and ``mj_forward`` runs once;
+3. the solutions are in the robot's ``MjData.qpos`` and MuJoCo runs once: ``mj_forward``
+   when a sink needs it (a film of the model itself, the viewer; a sink says so with
+   ``needs_forward``, true unless it sets it false), else ``mj_kinematics``, all the
+   recording and the measures read;
 4. metrics are read from that ``MjData`` and the results: target and achieved
    position, position and orientation error (a result's errors are measured once, by
    MuJoCo FK at the pose it returns, which is the pose the frame shows), iterations,
@@ -50,27 +53,14 @@ __all__ = [
     "SceneRunner",
     "chain_reach",
     "frame_loop",
+    "needs_forward",
     "run_scene",
 ]
 
 
-def chain_reach(chain: Chain) -> tuple[NDArray[np.float64], float]:
-    """The chain's base point ``(3,)`` [m] and an upper bound of its reach [m].
-
-    The base is the first joint's anchor; the reach is the length of the polyline through
-    the distinct joint anchors to the end effector, ``sum |a_{k+1} - a_k| + |p - a_last|``,
-    measured at the chain's current pose (joints are hinges, so these distances never
-    change); the chain is left as it was.
-    """
-    chain.set_q(chain.q)
-    anchors, _ = chain.joint_axes()
-    pts = [anchors[0]]
-    for a in anchors[1:]:
-        if float(np.linalg.norm(a - pts[-1])) > 1e-9:
-            pts.append(a)
-    pts.append(chain.position.copy())
-    reach = float(sum(np.linalg.norm(b - a) for a, b in zip(pts[:-1], pts[1:], strict=True)))
-    return anchors[0].copy(), reach
+chain_reach = Chain.reach
+"""``chain_reach(chain)``: :meth:`Chain.reach <humanoid_ik.core.chain.Chain.reach>`, by
+the name it had here."""
 
 
 class FrameSink(Protocol):
@@ -79,7 +69,14 @@ class FrameSink(Protocol):
 
     def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
         """Take one frame: its ``record`` and the scene's ``data`` at that frame (after
-        ``mj_forward``; read it now, the next frame overwrites it)."""
+        ``mj_forward``, or ``mj_kinematics`` when no sink of the run needs more, see
+        :func:`needs_forward`; read it now, the next frame overwrites it)."""
+
+
+def needs_forward(sinks: Sequence[object]) -> bool:
+    """Whether a frame must run ``mj_forward`` for ``sinks``: a sink that only reads
+    ``qpos`` and the kinematics sets ``needs_forward = False``; any other sink needs it."""
+    return any(getattr(sink, "needs_forward", True) for sink in sinks)
 
 
 def frame_loop(
@@ -146,9 +143,12 @@ class SceneRunner:
         self.chains = check_scene(scene, model)
         self.robot = self.chains[0].robot
         self.data = self.robot.data
+        self.forward = True
+        """Whether :meth:`step` runs ``mj_forward`` (else ``mj_kinematics``): :meth:`run`
+        sets it for its sinks (:func:`needs_forward`)."""
         self.specs: list[SolverSpec] = [scene.solver_for(e) for e in scene.effectors]
         self.targets = [scene.target(e.target) for e in scene.effectors]
-        self._reach = [(b.tolist(), r) for b, r in map(chain_reach, self.chains)]
+        self._reach = [(b.tolist(), r) for b, r in (c.reach() for c in self.chains)]
         # one solver object per distinct spec; effectors sharing a multi-effector solver
         # are solved together
         self._groups: list[tuple[Any, list[int]]] = []
@@ -255,7 +255,7 @@ class SceneRunner:
             assert res is not None
             self.q[i] = res.q
             d.qpos[self.chains[i].qpos_adr] = res.q
-        mujoco.mj_forward(m, d)
+        (mujoco.mj_forward if self.forward else mujoco.mj_kinematics)(m, d)
         samples = tuple(
             self._measure(i, targets[i], results[i], times[i])  # type: ignore[arg-type]
             for i in range(len(self.chains))
@@ -290,7 +290,7 @@ class SceneRunner:
             effector=eff.name,
             target_name=eff.target,
             task=eff.task,
-            target=pd.copy(),
+            target=pd,  # read-only: a Target's position
             achieved=achieved,
             position_error=err,
             orientation_error=orient,
@@ -329,9 +329,13 @@ class SceneRunner:
         n = self.n_frames if frames is None else frames
         self.reset()
         recording = self.recording()
-        recording.frame_times, recording.interrupted = frame_loop(
-            n, self.step, self.data, (*sinks, recording), on_frame
-        )
+        self.forward = needs_forward(sinks)
+        try:
+            recording.frame_times, recording.interrupted = frame_loop(
+                n, self.step, self.data, (*sinks, recording), on_frame
+            )
+        finally:
+            self.forward = True
         return recording
 
 

@@ -170,7 +170,7 @@ class Trajectory:
         scene: the scene's name.
         scene_file: the scene file, or ``""`` (a scene built in Python).
         model_file: the model file (MJCF) it ran on.
-        model_sha256: :func:`~humanoid_ik.config.sweep_file.model_digest` of the model
+        model_sha256: :func:`~humanoid_ik.core.model_files.model_digest` of the model
             file (16 hex digits of SHA-256 over it, its includes and assets).
         render: how the scene is filmed (replay uses it unless told otherwise).
         interrupted: Ctrl-C stopped the run early.

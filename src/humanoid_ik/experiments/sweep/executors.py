@@ -48,6 +48,7 @@ __all__ = [
     "OnDone",
     "die_with",
     "import_ray",
+    "ray_dispatch",
     "run_local",
     "run_ray",
 ]
@@ -339,6 +340,23 @@ def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnD
         _run_ray(ray, jobs, workers, address, on_done)
 
 
+def ray_dispatch(ray: Any, jobs: Sequence[Job], on_done: Callable[[int, Any], None]) -> None:
+    """Every job as a Ray task (one CPU, no retries), ``on_done(index, record)`` as each
+    ends; a task that fails (a dead worker or node) gets :func:`failed_record`. Used in
+    the sweep's process and in a local Ray's own (``ray_head.py``)."""
+    task = ray.remote(num_cpus=1, max_retries=0)(run_job)
+    pending = {task.remote(job): i for i, job in enumerate(jobs)}
+    while pending:
+        done, _ = ray.wait(list(pending), num_returns=1)
+        for ref in done:
+            i = pending.pop(ref)
+            try:
+                rec = ray.get(ref)
+            except Exception as exc:  # noqa: BLE001 - a dead worker or node
+                rec = failed_record(jobs[i], exc)
+            on_done(i, rec)
+
+
 def _run_ray(
     ray: Any, jobs: Sequence[Job], workers: int | None, address: str, on_done: OnDone
 ) -> None:
@@ -347,17 +365,7 @@ def _run_ray(
         _init_ray(ray, workers, address)
         started = True
     try:
-        task = ray.remote(num_cpus=1, max_retries=0)(run_job)
-        pending = {task.remote(job): job for job in jobs}
-        while pending:
-            done, _ = ray.wait(list(pending), num_returns=1)
-            for ref in done:
-                job = pending.pop(ref)
-                try:
-                    rec = ray.get(ref)
-                except Exception as exc:  # noqa: BLE001 - a dead worker or node
-                    rec = failed_record(job, exc)
-                on_done(job, rec)
+        ray_dispatch(ray, jobs, lambda i, rec: on_done(jobs[i], rec))
     finally:
         if started:
             ray.shutdown()

@@ -19,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from humanoid_ik.config.scene import SolverSpec, load_scene
-from humanoid_ik.config.sweep_file import Job, model_digest, reseeded, scene_digest
+from humanoid_ik.config.sweep_file import Job, reseeded, scene_digest
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.errors import SweepError
 from humanoid_ik.experiments.bench import make_targets, not_reaching, run_trials
 from humanoid_ik.run.runner import run_scene

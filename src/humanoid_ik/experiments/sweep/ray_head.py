@@ -66,7 +66,7 @@ def main() -> int:
         threading.Thread(target=watch, name="sweep-watch", daemon=True).start()
         import ray
 
-        from humanoid_ik.experiments.sweep.jobs import failed_record, run_job
+        from humanoid_ik.experiments.sweep.executors import ray_dispatch
 
         try:
             ray.init(
@@ -75,17 +75,7 @@ def main() -> int:
         except Exception as exc:  # noqa: BLE001 - any failure to start, in one line
             send("error", _one_line(exc))
             return 1
-        task = ray.remote(num_cpus=1, max_retries=0)(run_job)
-        pending = {task.remote(job): i for i, job in enumerate(jobs)}
-        while pending:
-            done, _ = ray.wait(list(pending), num_returns=1)
-            for ref in done:
-                i = pending.pop(ref)
-                try:
-                    rec = ray.get(ref)
-                except Exception as exc:  # noqa: BLE001 - a dead worker or node
-                    rec = failed_record(jobs[i], exc)
-                send("record", i, rec)
+        ray_dispatch(ray, jobs, lambda i, rec: send("record", i, rec))
         ended.set()
         send("end")
         ray.shutdown()

@@ -335,6 +335,9 @@ class Film:
         self.quats = quats
         self.images = list(images)
         self._view = mujoco.MjData(renderer.model) if staged else None
+        self.needs_forward = not staged
+        """A staged film runs ``mj_forward`` on its own copy; else the run's data must
+        be forwarded (cameras, lights)."""
 
     def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
         """Render frame ``record`` of ``data`` and hand it to every image sink."""
