@@ -1,6 +1,7 @@
 """Real subprocesses of the command line for the signal, output-set and disk-full tests:
-start one (tagged in its environment, so every process it starts can be found), run one
-under a file-size limit, find what is still alive, list temporaries."""
+start one (tagged in its environment, so every process it starts can be found), signal
+it at a chosen moment of its run, run one under a file-size limit, find what is still
+alive, list temporaries."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 TAG = "HUMANOID_IK_TEST_TAG"
@@ -29,6 +31,54 @@ def start(args: list[str], tag: str = "") -> subprocess.Popen:
         stderr=subprocess.PIPE,
         env=_env(tag),
     )
+
+
+def signal_when(
+    proc: subprocess.Popen,
+    sig: int,
+    ready: Callable[[], bool] | float,
+    after: float = 0.0,
+    within: float = 120.0,
+    poll: float = 0.002,
+) -> bool:
+    """Send ``sig`` to ``proc`` at a moment of its run: ``after`` seconds after ``ready()``
+    holds (checked every ``poll`` seconds: a file the run writes at that moment exists),
+    or ``ready`` seconds after now when it is a number. Returns whether ``proc`` was
+    still running then (False: it ended first, the signal was not sent).
+
+    Raises:
+        AssertionError: ``ready()`` did not hold within ``within`` seconds.
+    """
+    if not callable(ready):
+        time.sleep(ready)
+    else:
+        deadline = time.monotonic() + within
+        while not _holds(ready):
+            if proc.poll() is not None:
+                return False
+            assert time.monotonic() < deadline, f"the moment never came within {within} s"
+            time.sleep(poll)
+        time.sleep(after)
+    if proc.poll() is not None:
+        return False
+    proc.send_signal(sig)
+    return True
+
+
+def handles(proc: subprocess.Popen, sig: int) -> bool:
+    """Whether ``proc`` has installed a handler for ``sig`` yet (``SigCgt`` of
+    ``/proc/PID/status``): the command line is up, still importing what it runs."""
+    for line in Path(f"/proc/{proc.pid}/status").read_text().splitlines():
+        if line.startswith("SigCgt:"):
+            return bool(int(line.split()[1], 16) >> (sig - 1) & 1)
+    return False
+
+
+def _holds(ready: Callable[[], bool]) -> bool:
+    try:
+        return ready()
+    except OSError:  # a file went away while being looked at
+        return False
 
 
 def run_cli(*args: str, limit: int | None = None) -> subprocess.CompletedProcess:

@@ -20,13 +20,19 @@ def _render(out: Path, limit: int | None = None) -> subprocess.CompletedProcess:
     return run_cli(*ARGS, "--out", str(out), limit=limit)
 
 
+@pytest.fixture(scope="module")
+def whole(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The MP4 of a render with no limit (read, never changed, by the tests)."""
+    out = tmp_path_factory.mktemp("whole")
+    res = _render(out)
+    assert res.returncode == 0, res.stderr
+    return out / "circle.mp4"
+
+
 @pytest.mark.slow
-def test_mp4_whose_trailer_cannot_be_written_is_not_left_under_its_name(tmp_path):
-    full = _render(tmp_path / "full")
-    assert full.returncode == 0, full.stderr
-    mp4 = tmp_path / "full" / "circle.mp4"
-    assert mp4_complete(mp4)
-    size = mp4.stat().st_size
+def test_mp4_whose_trailer_cannot_be_written_is_not_left_under_its_name(tmp_path, whole):
+    assert mp4_complete(whole)
+    size = whole.stat().st_size
     # the frames fit, the index ffmpeg writes last does not: as a disk filling up then
     res = _render(tmp_path / "short", limit=size - 100)
     assert res.returncode == 2
@@ -38,10 +44,7 @@ def test_mp4_whose_trailer_cannot_be_written_is_not_left_under_its_name(tmp_path
 
 
 @pytest.mark.slow
-def test_mp4_complete_tells_a_whole_file_from_a_cut_one(tmp_path):
-    res = _render(tmp_path / "r")
-    assert res.returncode == 0, res.stderr
-    whole = tmp_path / "r" / "circle.mp4"
+def test_mp4_complete_tells_a_whole_file_from_a_cut_one(tmp_path, whole):
     assert mp4_complete(whole)
     data = whole.read_bytes()
     for cut in (len(data) - 1, len(data) // 2, 7):

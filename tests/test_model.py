@@ -117,3 +117,20 @@ def test_scene_has_named_cameras(model):
     """The scene frames the workspace with front, side and top cameras."""
     names = {model.camera(i).name for i in range(model.ncam)}
     assert {"front", "side", "top"} <= names
+
+
+def test_the_loader_reads_mjcf_as_mujoco_does(model):
+    """load_model and model_spec leave an MJCF as MuJoCo compiles it: the URDF rules
+    (geom groups, fused roots, package search) apply to URDF and xacro files only."""
+    from humanoid_ik.core.models import load_model, model_spec
+
+    loaded = load_model(bundled_model_path())
+    assert loaded.ngeom == model.ngeom and loaded.nbody == model.nbody
+    np.testing.assert_array_equal(loaded.geom_group, model.geom_group)
+    np.testing.assert_array_equal(loaded.geom_contype, model.geom_contype)
+    spec = model_spec(bundled_model_path())
+    assert (
+        spec.compiler.fusestatic
+        == mujoco.MjSpec.from_file(str(bundled_model_path())).compiler.fusestatic
+    )
+    np.testing.assert_array_equal(spec.compile().geom_group, model.geom_group)

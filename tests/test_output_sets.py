@@ -6,11 +6,11 @@ writing into the same folder)."""
 from __future__ import annotations
 
 import json
-import random
 import signal
-import time
+import subprocess
 import uuid
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -18,7 +18,7 @@ import pytest
 from humanoid_ik.outputs.atomic import MANIFEST, publish, published, staged_outputs
 from humanoid_ik.outputs.render.video import mp4_complete
 from humanoid_ik.outputs.trajectory import load_trajectory
-from tests.processes import none_left, run_cli, start, temporaries
+from tests.processes import handles, none_left, run_cli, signal_when, start, tagged, temporaries
 
 SMALL = ["--width", "64", "--height", "48"]
 
@@ -127,14 +127,10 @@ def test_two_renders_into_one_folder_leave_one_whole_set(tmp_path):
 @pytest.mark.slow
 def test_ctrl_c_during_a_render_publishes_the_frames_done(tmp_path):
     out = tmp_path / "out"
-    proc = start(["render", "showcase", "--frames", "1500", *SMALL, "--out", str(out)])
-    deadline = time.monotonic() + 120
-    stage = None
-    while stage is None and time.monotonic() < deadline:
-        stage = next(iter(out.glob(".run.*.tmpdir")), None) if out.exists() else None
-        time.sleep(0.05)
-    time.sleep(2.0)  # some frames are done
-    proc.send_signal(signal.SIGTERM)
+    tag = uuid.uuid4().hex
+    proc = start(["render", "showcase", "--frames", "1500", *SMALL, "--out", str(out)], tag)
+    recording = {**_render_moment("recording", out, proc, tag), "after": 2.0}
+    assert signal_when(proc, signal.SIGTERM, **recording)  # some frames are done
     _o, err = proc.communicate(timeout=120)
     assert proc.returncode == 143, err.decode()
     names = _check_one_set(out)
@@ -144,28 +140,72 @@ def test_ctrl_c_during_a_render_publishes_the_frames_done(tmp_path):
     assert np.all(np.diff(traj.time) > 0)
 
 
+def _stage(out: Path, pid: int) -> Path | None:
+    """The staging folder of process ``pid`` writing into ``out``, if there is one (not
+    one that a killed run left)."""
+    return next(out.glob(f".run.{pid}.*.tmpdir"), None) if out.exists() else None
+
+
+def _ffmpeg_runs(tag: str) -> bool:
+    """Whether an ``ffmpeg`` of the run tagged ``tag`` runs: the render loop has begun."""
+    return any(b"ffmpeg" in Path(f"/proc/{pid}/cmdline").read_bytes() for pid in tagged(tag))
+
+
+RENDER_KILLS = [
+    ("start-up", signal.SIGINT),
+    ("imports", signal.SIGTERM),
+    ("staged", signal.SIGTERM),
+    ("recording", signal.SIGKILL),
+    ("rendering", signal.SIGINT),
+    ("finishing", signal.SIGTERM),
+    ("finishing", signal.SIGKILL),
+]
+"""(phase of the render, signal), in this order into one folder: the interpreter
+starting; the command importing (SIGTERM's handler installed); the staging folder made;
+ffmpeg started; frames being rendered (a second later); the video done, the metrics
+being written."""
+
+
+def _render_moment(phase: str, out: Path, proc: subprocess.Popen, tag: str) -> dict[str, Any]:
+    """When to signal render ``proc`` (tagged ``tag``) in ``phase``: the ``ready``,
+    ``after`` and ``poll`` of :func:`~tests.processes.signal_when`."""
+    if phase == "start-up":
+        return {"ready": 0.2}
+    if phase == "imports":
+        return {"ready": lambda: handles(proc, signal.SIGTERM), "poll": 0.0005}
+    if phase in ("recording", "rendering"):  # a look at every process: not too often
+        return {
+            "ready": lambda: _ffmpeg_runs(tag),
+            "after": 1.0 if phase == "rendering" else 0.0,
+            "poll": 0.02,
+        }
+
+    def ready() -> bool:
+        stage = _stage(out, proc.pid)
+        return stage is not None and (phase == "staged" or (stage / "metrics.json").exists())
+
+    return {"ready": ready}
+
+
 @pytest.mark.slow
-def test_random_kills_of_renders_leave_one_whole_set_or_the_previous(tmp_path):
-    """20 renders into one folder, each stopped by a random signal at a random moment:
+def test_kills_in_each_phase_of_renders_leave_one_whole_set_or_the_previous(tmp_path):
+    """Renders into one folder, each stopped by a signal in one phase of its run (start-up,
+    imports, staged, ffmpeg started, rendering, finishing; each signal in two or more):
     the folder always holds one complete set (the last finished or published one), no
     process of the run (ffmpeg included) outlives it, and the next run leaves no
     temporary behind."""
-    rng = random.Random(14)
     out = tmp_path / "out"
     first = run_cli("render", "circle", "--frames", "6", *SMALL, "--out", str(out))
     assert first.returncode == 0, first.stderr
-    for _ in range(20):
-        sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
-        frames = str(rng.choice([20, 40, 80]))
+    for phase, sig in RENDER_KILLS:
         tag = uuid.uuid4().hex
-        proc = start(["render", "showcase", "--frames", frames, *SMALL, "--out", str(out)], tag)
-        time.sleep(rng.uniform(0.15, 4.0))
-        proc.send_signal(sig)
+        proc = start(["render", "showcase", "--frames", "20", *SMALL, "--out", str(out)], tag)
+        assert signal_when(proc, sig, **_render_moment(phase, out, proc, tag)), (phase, sig)
         _o, err = proc.communicate(timeout=120)
         status = {signal.SIGINT: 130, signal.SIGTERM: 143}.get(sig)
-        assert proc.returncode in (0, -sig, status), err.decode()[-800:]
+        assert proc.returncode in (0, -sig, status), (phase, sig, err.decode()[-800:])
         assert "Traceback" not in err.decode(), err.decode()[-1500:]
-        assert none_left(tag) == []  # ffmpeg included
+        assert none_left(tag) == [], (phase, sig)  # ffmpeg included
         _check_one_set(out)
     last = run_cli("render", "circle", "--frames", "4", *SMALL, "--no-video", "--out", str(out))
     assert last.returncode == 0, last.stderr

@@ -116,20 +116,32 @@ def _clean_copy(dest: Path) -> Path:
 BUNDLED = ("models", "scenes", "sweeps")
 
 
-@pytest.mark.slow
-def test_wheel_carries_and_finds_its_bundled_files(tmp_path):
-    """A wheel built from the project holds models/, scenes/, sweeps/ under
-    humanoid_ik/_bundled/; unpacked outside the checkout, the package reads them through
-    importlib.resources: scenes lists the bundled scenes and solve uses the humanoid."""
-    src = _clean_copy(tmp_path / "src")
-    dist = tmp_path / "dist"
+@pytest.fixture(scope="module")
+def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The sdist and the wheel that ``python -m build`` makes from a clean copy of the
+    project (the wheel from the sdist, as .ci/wheel-smoke builds them): built once for
+    the tests that read them."""
+    pytest.importorskip("build", reason="python -m build: the dev extra installs it")
+    tmp = tmp_path_factory.mktemp("built")
+    src = _clean_copy(tmp / "src")
+    dist = tmp / "dist"
     subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(src)],
+        [sys.executable, "-m", "build", "-o", str(dist), str(src)],
         check=True,
         capture_output=True,
         timeout=600,
     )
+    (sdist,) = dist.glob("humanoid_ik-*.tar.gz")
     (wheel,) = dist.glob("humanoid_ik-*.whl")
+    return sdist, wheel
+
+
+@pytest.mark.slow
+def test_wheel_carries_and_finds_its_bundled_files(tmp_path, built):
+    """The wheel holds models/, scenes/, sweeps/ under humanoid_ik/_bundled/; unpacked
+    outside the checkout, the package reads them through importlib.resources: scenes
+    lists the bundled scenes and solve uses the humanoid."""
+    _sdist, wheel = built
     with zipfile.ZipFile(wheel) as z:
         names = set(z.namelist())
         z.extractall(tmp_path / "site")
@@ -184,18 +196,6 @@ def test_wheel_carries_and_finds_its_bundled_files(tmp_path):
     assert res.returncode == 0 and "converged" in res.stdout, res.stderr
 
 
-def _wheel(src: Path, dist: Path, env: dict[str, str] | None = None) -> Path:
-    subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(src)],
-        check=True,
-        capture_output=True,
-        timeout=600,
-        env=env,
-    )
-    (wheel,) = dist.glob("humanoid_ik-*.whl")
-    return wheel
-
-
 NO_COMPILER = (
     "humanoid_ik: building the lm kernel needs a C compiler and Python's headers "
     "(on Debian/Ubuntu: apt-get install gcc libc6-dev python3-dev; see docs/lm.md)"
@@ -223,24 +223,14 @@ def test_without_a_c_compiler_the_build_fails_with_one_line(tmp_path):
 
 
 @pytest.mark.slow
-def test_sdist_carries_the_bundled_folders_and_builds_the_wheel(tmp_path):
+def test_sdist_carries_the_bundled_folders_and_builds_the_wheel(built):
     """The sdist has the top-level folders (MANIFEST.in) and the wheel built from it maps
     them into the package (what .ci/wheel-smoke installs)."""
-    pytest.importorskip("build", reason="python -m build: the dev extra installs it")
-    src = _clean_copy(tmp_path / "src")
-    dist = tmp_path / "dist"
-    subprocess.run(
-        [sys.executable, "-m", "build", "-o", str(dist), str(src)],
-        check=True,
-        capture_output=True,
-        timeout=600,
-    )
-    (sdist,) = dist.glob("humanoid_ik-*.tar.gz")
+    sdist, wheel = built
     with tarfile.open(sdist) as t:
         names = {n.split("/", 1)[1] for n in t.getnames() if "/" in n}
     assert {"models/humanoid/scene.xml", "scenes/circle.toml", "setup.py"} <= names
     assert "src/humanoid_ik/solvers/jacobian/_lm_kernel.c" in names
     assert "src/humanoid_ik/solvers/jacobian/_lm_kernel.pyi" in names
-    (wheel,) = dist.glob("humanoid_ik-*.whl")
     with zipfile.ZipFile(wheel) as z:
         assert "humanoid_ik/_bundled/scenes/circle.toml" in z.namelist()

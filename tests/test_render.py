@@ -1,6 +1,7 @@
 """Headless rendering with MuJoCo's Renderer on Mesa's EGL: every bundled scene is filmed
 for a few small frames; the video decodes, frames change, the markers sit where the
-targets project, and the outputs are complete."""
+targets project (painted over the robot where it hides them), and the outputs are
+complete."""
 
 from __future__ import annotations
 
@@ -239,6 +240,45 @@ def test_project_matches_the_pinhole_model():
     assert u == pytest.approx(320.0 + f * 0.1 / 2.0) and v == pytest.approx(240 - f * 0.05 / 2)
     with pytest.raises(RenderError, match=r"camera 'left' not in model; cameras: front, side"):
         project(m, d, "left", c, 640, 480)
+
+
+def test_a_hidden_marker_is_painted_over_the_robot():
+    """A target inside the humanoid's torso is hidden from the front camera (a ray from
+    the camera meets the torso first, and MuJoCo's picture shows the torso there); its
+    marker is painted over the picture, green around the target's projection."""
+    from humanoid_ik.run.metrics import EffectorSample, FrameRecord
+
+    m = mujoco.MjModel.from_xml_path(str(REPO / "models" / "humanoid" / "scene.xml"))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    mujoco.mj_forward(m, d)
+    target = d.site("torso_site").xpos.copy()
+    sample = EffectorSample(
+        effector="right_palm_site",
+        target_name="inside",
+        task="reach",
+        target=target,
+        achieved=d.site("right_palm_site").xpos.copy(),
+        position_error=0.0,
+        orientation_error=None,
+        iterations=1,
+        solve_time=0.0,
+        limit_margin=1.0,
+        reachable=True,
+        on_target=True,
+        status="converged",
+    )
+    cam = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "front")
+    assert not visible(m, d, cam, target)
+    u, v, _ = project(m, d, "front", target, W, H)
+    col, row = int(u), int(v)
+    with FrameRenderer(m, W, H, "front", 0) as fr:
+        fr.renderer.update_scene(d, camera=cam)
+        plain = fr.renderer.render()
+        drawn = fr.render(d, FrameRecord(0, 0.0, (sample,)))
+    before = [colour_class(px) for px in plain[row - 1 : row + 2, col - 1 : col + 2].reshape(-1, 3)]
+    after = [colour_class(px) for px in drawn[row - 1 : row + 2, col - 1 : col + 2].reshape(-1, 3)]
+    assert before.count("green") == 0 and after.count("green") >= 4, (before, after)
 
 
 def test_video_writer_failure_is_one_line(tmp_path):

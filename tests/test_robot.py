@@ -4,8 +4,11 @@ only once the robot is claimed."""
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import mujoco
 import numpy as np
@@ -65,23 +68,46 @@ def _targets(pose: bool, count: int, seed: int) -> list[Target]:
     return out
 
 
+SWITCH_INTERVAL_S = 1e-5
+"""The interpreter's thread switch interval during the two-thread tests [s] (default
+5e-3): threads swap many times inside every solve, so a state shared by mistake shows
+in few solves."""
+THREAD_SOLVES = {"jacobian_transpose": 10, "mink": 20, "ccd": 20}
+"""Solves per thread of the slow solvers (the others: 100)."""
+
+
+@contextmanager
+def _threads_swap_often() -> Iterator[None]:
+    before = sys.getswitchinterval()
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
+    try:
+        yield
+    finally:
+        sys.setswitchinterval(before)
+
+
 @pytest.mark.parametrize("name", sorted(SOLVERS))
 def test_one_solver_object_serves_two_threads(name):
     """Two threads, each with its own robot state, ONE solver object: every answer is
-    the one a fresh solver gives for the same target and start (before the solvers
-    held no state, 31 of 400 dls answers and 53 of 400 pseudoinverse answers were
-    wrong)."""
+    the one a fresh solver gives for the same target and start on a third chain, that
+    solves the targets in reverse order (so an answer that hung on the solves before it
+    differs too). On the code before the solvers held no state, this test (threads
+    swapping every 10 us) found wrong answers in every run, fewer on a busy machine:
+    12 to 176 of dls's 200, 52 to 175 of pseudoinverse's 200, 9 to 19 of
+    jacobian_transpose's 20, and all of lm's (whose answers hung on the chain's earlier
+    solves then)."""
     solver = make_solver(name)
+    count = THREAD_SOLVES.get(name, 100)
     if name == "look_at":
         make = lambda: Chain(site="gaze_site")  # noqa: E731
-        targets = [Target(np.array([0.8, y, 1.4])) for y in np.linspace(-0.4, 0.4, 100)]
+        targets = [Target(np.array([0.8, y, 1.4])) for y in np.linspace(-0.4, 0.4, count)]
     else:
         make = Chain  # noqa: E731
         pose = solver.supports_orientation and solver.applicable(make(), True) is None
-        count = 30 if name in ("mink", "jacobian_transpose", "ccd") else 100
         targets = _targets(pose, count, seed=3)
     start = make().q_home.copy()
-    reference = [make_solver(name).solve(make(), t, start) for t in targets]
+    alone = make()
+    reference = [make_solver(name).solve(alone, t, start) for t in targets[::-1]][::-1]
     assert sum(r.converged for r in reference) >= 0.8 * len(targets)  # a real workload
     wrong: list[int] = [0, 0]
 
@@ -93,10 +119,11 @@ def test_one_solver_object_serves_two_threads(name):
                 wrong[k] += 1
 
     threads = [threading.Thread(target=run, args=(k,)) for k in range(2)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    with _threads_swap_often():
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
     assert wrong == [0, 0]
 
 
@@ -107,7 +134,8 @@ def test_data_is_read_only_once_the_robot_is_claimed():
     chain = Chain()
     targets = _targets(True, 40, seed=5)
     start = chain.q_home.copy()
-    reference = [make_solver("dls").solve(Chain(), t, start).q for t in targets]
+    alone = Chain()
+    reference = [make_solver("dls").solve(alone, t, start).q for t in targets[::-1]][::-1]
     other = mujoco.MjData(chain.model)
     other.qpos[:] = chain.data.qpos  # the other joints as the chain has them
     other.qpos[chain.qpos_adr] = chain.upper.clip(max=3.0)  # far from every answer

@@ -4,22 +4,33 @@ the next run, and end with the conventional status and one line."""
 
 from __future__ import annotations
 
+import json
 import os
-import random
 import signal
 import subprocess
 import sys
 import time
 import uuid
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from humanoid_ik.config.sweep_file import load_sweep
 from humanoid_ik.core.models import bundled_dir
 from humanoid_ik.experiments.dataset import read_dataset
 from humanoid_ik.outputs.atomic import atomic_dir, atomic_path, remove_stale
-from tests.processes import MESSAGE, STATUS, none_left, start, tagged, temporaries
+from tests.processes import (
+    MESSAGE,
+    STATUS,
+    handles,
+    none_left,
+    signal_when,
+    start,
+    tagged,
+    temporaries,
+)
 
 SWEEP = bundled_dir("sweeps") / "compare_solvers.toml"
 
@@ -139,37 +150,6 @@ def test_atomic_dir_is_removed_when_its_block_fails(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.slow
-def test_random_kills_of_sweeps_and_datasets_leave_complete_or_nothing(tmp_path):
-    """20 runs of each, stopped by a random signal at a random moment: afterwards
-    nothing of theirs runs, the next run finishes with no temporary left, and what is
-    on disk is either complete or absent."""
-    rng = random.Random(2026)
-    sweep = tmp_path / "small.toml"
-    sweep.write_text(SMALL_SWEEP)
-    for i in range(20):
-        for kind in ("sweep", "dataset"):
-            out = tmp_path / f"{kind}{i}"
-            out.mkdir()
-            if kind == "sweep":
-                args = ["sweep", str(sweep), "--workers", "2", "--out", str(out)]
-            else:
-                args = ["dataset", "--n", "200000", "--out", str(out / "d.npz")]
-            sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
-            tag = uuid.uuid4().hex
-            proc = start(args, tag)
-            time.sleep(rng.uniform(0.15, 3.0))  # after the interpreter has started
-            proc.send_signal(sig)
-            _o, err = proc.communicate(timeout=60)
-            # ended by the signal itself (before the handlers are installed, or SIGKILL),
-            # by its handler (130, 143), or finished first (0)
-            statuses = (-sig, 0) if sig == signal.SIGKILL else (STATUS[sig], -sig, 0)
-            assert proc.returncode in statuses, (kind, sig, err.decode()[-500:])
-            assert "Traceback" not in err.decode(), err.decode()[-1500:]
-            assert none_left(tag) == [], (kind, sig)
-            _check_rerun(kind, out, args)
-
-
 SMALL_SWEEP = """
 name = "small"
 seeds = [0, 1]
@@ -184,6 +164,98 @@ name = "right_pose"
 task = "pose"
 n = 50
 """
+DATASET_PAIRS = 100_000
+"""Pairs of a killed dataset run: packing them (11 MB) takes 10 ms or more, caught by
+looking every half millisecond."""
+START_UP_S = 0.2
+"""When a signal meant for the start-up lands: the interpreter is importing, before
+the command's handlers are installed."""
+
+
+def _packing(out: Path) -> bool:
+    return any(p.name.endswith(".tmp.npz") for p in out.iterdir())
+
+
+Moment = float | Callable[[subprocess.Popen, Path], bool]
+PHASES: dict[str, Moment] = {
+    # the moment of a sweep's run (out: its output folder) or a dataset's (out: the folder
+    # of d.npz) at which the signal is sent: a delay, or what the run has done by then
+    "start-up": START_UP_S,
+    "imports": lambda proc, out: handles(proc, signal.SIGTERM),  # the command importing
+    "pool": lambda proc, out: (out / "workers.log").exists(),  # forkserver, workers start
+    "jobs": lambda proc, out: any((out / "jobs").glob("*.json")),  # records coming back
+    "summary": lambda proc, out: (out / "summary.csv").exists(),  # plotting summary.png
+    "packing": lambda proc, out: _packing(out),  # raw chunks into the .npz's temporary
+    "published": lambda proc, out: (out / "d.npz").exists(),  # scratch removed, exiting
+}
+KILLS = [
+    ("sweep", "start-up", signal.SIGINT),
+    ("sweep", "imports", signal.SIGTERM),
+    ("sweep", "pool", signal.SIGINT),
+    ("sweep", "pool", signal.SIGTERM),
+    ("sweep", "pool", signal.SIGKILL),
+    ("sweep", "jobs", signal.SIGINT),
+    ("sweep", "jobs", signal.SIGKILL),
+    ("sweep", "summary", signal.SIGTERM),
+    ("sweep", "summary", signal.SIGKILL),
+    ("dataset", "start-up", signal.SIGTERM),
+    ("dataset", "imports", signal.SIGTERM),
+    ("dataset", "packing", signal.SIGINT),
+    ("dataset", "packing", signal.SIGTERM),
+    ("dataset", "packing", signal.SIGKILL),
+    ("dataset", "published", signal.SIGKILL),
+]
+"""(run, phase of the run, signal): every phase of each run, each signal in several."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("kind", "phase", "sig"), KILLS, ids=[f"{k}-{p}-{s.name}" for k, p, s in KILLS]
+)
+def test_kill_in_each_phase_of_sweeps_and_datasets_leaves_complete_or_nothing(
+    tmp_path, kind, phase, sig
+):
+    """A sweep or a dataset stopped by a signal at one moment of its run (start-up,
+    imports, pool, jobs and summary of a sweep; start-up, imports, packing and publishing
+    of a dataset): nothing of it runs afterwards, what is on disk is complete or absent,
+    and the next run finishes with no temporary left."""
+    out = tmp_path / kind
+    out.mkdir()
+    sweep = None
+    if kind == "sweep":
+        sweep = tmp_path / "small.toml"
+        sweep.write_text(SMALL_SWEEP)
+        args = ["sweep", str(sweep), "--workers", "2", "--out", str(out)]
+    else:
+        args = ["dataset", "--n", str(DATASET_PAIRS), "--out", str(out / "d.npz")]
+    tag = uuid.uuid4().hex
+    proc = start(args, tag)
+    moment = PHASES[phase]
+    ready = moment if isinstance(moment, float) else lambda: moment(proc, out)
+    assert signal_when(proc, sig, ready, poll=0.0005 if phase == "packing" else 0.002)
+    _o, err = proc.communicate(timeout=60)
+    # ended by the signal itself (before the handlers are installed, or SIGKILL), by its
+    # handler (130, 143), or finished first (0)
+    statuses = (-sig, 0) if sig == signal.SIGKILL else (STATUS[sig], -sig, 0)
+    assert proc.returncode in statuses, (kind, phase, sig, err.decode()[-500:])
+    assert "Traceback" not in err.decode(), err.decode()[-1500:]
+    assert none_left(tag) == [], (kind, phase, sig)
+    _check_complete_or_absent(kind, out, sweep)
+    _check_rerun(kind, out, args)
+
+
+def _check_complete_or_absent(kind: str, out: Path, sweep: Path | None) -> None:
+    """What a stopped run left under its final names is whole."""
+    if kind == "dataset":
+        if (out / "d.npz").exists():
+            assert read_dataset(out / "d.npz").positions.shape == (DATASET_PAIRS, 3)
+        return
+    assert sweep is not None
+    for record in (out / "jobs").glob("*.json"):
+        assert json.loads(record.read_text())["status"] in ("ok", "failed", "skipped")
+    if (out / "summary.csv").exists():
+        rows = (out / "summary.csv").read_text().splitlines()
+        assert len(rows) == len(load_sweep(sweep).jobs) + 1
 
 
 def _check_rerun(kind: str, out: Path, args: list[str]) -> None:

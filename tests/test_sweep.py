@@ -24,7 +24,7 @@ from humanoid_ik.experiments.sweep import (
     run_job,
     run_sweep,
 )
-from humanoid_ik.experiments.sweep.executors import PRELOAD, run_ray
+from humanoid_ik.experiments.sweep.executors import PRELOAD
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
@@ -295,21 +295,23 @@ def test_local_pool_and_ray_give_the_same_summary(tmp_path):
 def test_local_ray_runs_in_a_process_group_of_its_own_and_tags_nothing(tmp_path):
     """``--ray local`` (no Ray initialised here) runs Ray from a process of its own, in
     a process group that is not the caller's, and puts nothing into the caller's
-    environment; the summary equals the local pool's."""
+    environment, not even while the records come back; the summary equals the local
+    pool's."""
     ray = pytest.importorskip("ray")
     sweep = load_sweep(_write(tmp_path, TINY.replace("seeds = [0, 1]", "seeds = [0]")))
     local = run_sweep(sweep, tmp_path / "local", workers=2, plot=False)
     before = dict(os.environ)
     seen: list[tuple[dict[str, str], int]] = []
 
-    def on_done(job, rec):
+    def on_record(done, total, rec):
         seen.append((dict(os.environ), os.getpgrp()))
 
     assert not ray.is_initialized()
-    run_ray(sweep.jobs[:1], 2, "local", on_done)
+    remote = run_sweep(
+        sweep, tmp_path / "ray", workers=2, ray_address="local", progress=on_record, plot=False
+    )
     assert not ray.is_initialized() and dict(os.environ) == before
-    assert seen == [(before, os.getpgrp())]
-    remote = run_sweep(sweep, tmp_path / "ray", workers=2, ray_address="local", plot=False)
+    assert seen == [(before, os.getpgrp())] * len(sweep.jobs)
     assert len(local.executed) == len(remote.executed) == len(sweep.jobs)
     assert _comparable(tmp_path / "local") == _comparable(tmp_path / "ray")
 

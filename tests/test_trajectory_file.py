@@ -24,6 +24,8 @@ from humanoid_ik.outputs.trajectory import load_trajectory, write_trajectory
 from humanoid_ik.run.runner import SceneRunner, frame_loop
 from humanoid_ik.run.trajectory import Trajectory, check_trajectory_model, qpos_names
 
+ARM7 = Path(__file__).resolve().parents[1] / "examples" / "urdf_arm" / "arm7.urdf"
+
 
 @pytest.fixture(scope="module")
 def showcase(tmp_path_factory):
@@ -67,12 +69,57 @@ def test_trajectory_header(showcase):
     assert t.model_sha256 == model_digest(bundled_model_path()) and len(t.model_sha256) == 16
     assert [e.solver for e in t.effectors] == ["dls(restarts=0)", "dls(restarts=0)", "look_at"]
     assert [e.site for e in t.effectors] == ["right_palm_site", "left_palm_site", "gaze_site"]
+    assert [e.kind for e in t.effectors] == ["site", "site", "site"]
     assert t.fps == pytest.approx(2.0) and not t.interrupted
     np.testing.assert_allclose(t.time, np.arange(12) / 2.0)
     assert t.qpos.shape == (12, 16) and t.qpos_names[0] == "neck_yaw_joint"
     assert t.effectors[0].joints[0] == "right_shoulder_flexion_joint"
     assert t.effectors[2].joints == ("neck_yaw_joint", "neck_pitch_joint")
     assert t.render.camera == "front"
+
+
+def test_a_body_effector_is_named_as_a_body(tmp_path):
+    """A scene whose effector is a body (URDF arm's tool_link): both files' headers name
+    it under ``body`` (no ``site``), it reads back as a body with the same columns, and
+    a file written before the kind was kept (``site`` naming the body) still reads."""
+    (tmp_path / "tool.toml").write_text(
+        f"""name = "tool"
+model = "{ARM7}"
+duration = 0.1
+fps = 30
+[[targets]]
+name = "p"
+motion = {{ kind = "points", points = [[0.3, 0.2, 0.9]] }}
+[[effectors]]
+body = "tool_link"
+target = "p"
+"""
+    )
+    out = record_scene(load_scene(tmp_path / "tool.toml"), tmp_path / "run")
+    npz, csv = out.trajectory
+    header = json.loads(csv.read_text().splitlines()[0][2:])
+    assert header["effectors"][0]["body"] == "tool_link" and "site" not in header["effectors"][0]
+    for path in (npz, csv):
+        e = load_trajectory(path).effectors[0]
+        assert (e.kind, e.site) == ("body", "tool_link")
+    assert "tool_link.target_x" in csv.read_text().splitlines()[1].split(",")
+    old = {
+        **header,
+        "effectors": [
+            {
+                "site": "tool_link",
+                **{k: v for k, v in header["effectors"][0].items() if k != "body"},
+            }
+        ],
+    }
+    lines = csv.read_text().splitlines()
+    legacy = tmp_path / "legacy.csv"
+    legacy.write_text("# " + json.dumps(old) + "\n" + "\n".join(lines[1:]) + "\n")
+    e = load_trajectory(legacy).effectors[0]
+    assert (e.kind, e.site) == ("site", "tool_link")
+    np.testing.assert_array_equal(e.achieved, load_trajectory(csv).effectors[0].achieved)
+    with pytest.raises(TrajectoryFileError, match="kind: expected one of site, body, got 'camera'"):
+        replace(load_trajectory(npz).effectors[0], kind="camera")
 
 
 def test_chain_columns_are_the_qpos_columns(showcase):

@@ -574,6 +574,66 @@ def test_refused_chains_and_errors():
         make_solver("two_link", shoulder="up")
 
 
+OFFSET_WRIST_XML = """<mujoco><worldbody><body name="upper">
+  <joint name="s1" axis="0 0 1"/><joint name="s2" axis="0 1 0"/><joint name="s3" axis="1 0 0"/>
+  <geom size=".05"/>
+  <body name="fore" pos="0 0 -0.3"><joint name="elbow" axis="0 1 0"/><geom size=".04"/>
+    <body name="wrist" pos="0 0 -0.25"><joint name="w1" axis="0 0 1"/><geom size=".03"/>
+      <body name="hand" pos="{x} 0 -0.05"><joint name="w2" axis="0 1 0"/><geom size=".02"/>
+        <site name="tip" pos="0.1 0 0"/></body></body></body></body></worldbody></mujoco>"""
+"""A three-hinge shoulder and an elbow, then a two-hinge wrist whose axes meet (``x`` 0)
+or pass 0.05 m apart (``x`` 0.05)."""
+
+
+@pytest.fixture(scope="module")
+def g1_model():
+    """G1's original URDF (example-robot-data)."""
+    from humanoid_ik.core.models import load_model
+    from tests.robots import robot_file
+
+    return load_model(robot_file("g1"))
+
+
+def test_joints_after_the_elbow_must_be_a_wrist(g1_model):
+    """G1's default chain from a hand runs from the waist: the waist's yaw and roll meet,
+    so they look like a shoulder with the waist's pitch for an elbow and the whole arm
+    (7 hinges) riding along. two_link held those at home and reached 0 % of the chain's
+    targets (worst 798 mm): it is refused, naming the misread elbow, and auto takes no
+    second opinion from it. A wrist whose two axes miss each other by 0.05 m is refused
+    too; the same wrist with its axes meeting, and the humanoid's arm, are two-link limbs
+    and give the answers they always did."""
+    tl = TwoLink()
+    arm = Chain(g1_model, body="left_rubber_hand")
+    assert arm.n == 10 and arm.joint_names[2] == "waist_pitch_joint"
+    why = tl.applicable(arm)
+    assert why is not None and why.startswith(
+        "two_link needs a wrist of at most 3 hinges after the elbow; the 7 joint(s) after "
+        "the elbow 'waist_pitch_joint'"
+    )
+    assert "--joints" in why and "\n" not in why
+    with pytest.raises(SolverError, match="wrist of at most 3 hinges"):
+        tl.solve(arm, arm.fk(arm.q_home)[0])
+    auto = make_solver("auto")
+    assert auto.second_opinion(arm) is None
+
+    offset = Chain.from_xml_string(OFFSET_WRIST_XML.format(x=0.05), "tip")
+    why = tl.applicable(offset)
+    assert why is not None and "those of 'w1', 'w2' (after the elbow 'elbow') do not" in why
+    meeting = Chain.from_xml_string(OFFSET_WRIST_XML.format(x=0.0), "tip")
+    assert tl.applicable(meeting) is None and TwoLink.kind(meeting) == "three_hinge"
+    rng = np.random.default_rng(3)
+    for _ in range(5):  # targets with the wrist at home: reached exactly
+        q = meeting.random_q(rng)
+        q[4:] = meeting.q_home[4:]
+        res = tl.solve(meeting, meeting.fk(q)[0], meeting.q_home)
+        assert res.converged and res.position_error < 1e-9
+
+    humanoid = Chain()
+    assert tl.applicable(humanoid) is None
+    res = tl.solve(humanoid, [0.35, -0.30, 1.15])
+    np.testing.assert_allclose(res.q[:4], [0.112389, 0.098302, -0.260851, 1.580848], atol=1e-6)
+
+
 # ------------------------------------------------------------------------------ details
 def test_planar_details_follow_the_report():
     """Planar details: theta1 = theta_t1 -+ theta_t2 and theta2 = -+(phi - pi) per branch."""

@@ -102,8 +102,9 @@ def test_urdf_link_without_mass_gets_a_nominal_one(tmp_path):
 
 
 def test_urdf_missing_mesh_is_one_line_with_the_fix(tmp_path, capsys):
-    """A package:// mesh that is nowhere near the URDF fails in one line naming the file
-    and how to fix it; the CLI exits 2 without a traceback."""
+    """A package:// mesh that is nowhere near the URDF fails in one line naming the URI,
+    where it was looked for and the option that fixes it; the CLI exits 2 without a
+    traceback."""
     links = "\n".join(
         [
             _revolute("j1", "base", "l1"),
@@ -116,7 +117,9 @@ def test_urdf_missing_mesh_is_one_line_with_the_fix(tmp_path, capsys):
     with pytest.raises(ModelError) as exc:
         load_model(path)
     msg = str(exc.value)
-    assert "\n" not in msg and "l1.stl" in msg and "put the mesh files beside the model" in msg
+    assert "\n" not in msg and "mesh 'package://arm/meshes/l1.stl' not found" in msg
+    assert "ROS_PACKAGE_PATH" in msg and "--package-path arm=DIR" in msg
+    assert str(tmp_path / "meshes" / "l1.stl") in msg  # beside the URDF, tried last
     code = main(["solve", "--model", str(path), "--body", "l1", "--target", "0,0,0"])
     out, err = capsys.readouterr()
     assert code == 2 and err.count("\n") == 1 and "l1.stl" in err and "Traceback" not in err

@@ -161,7 +161,7 @@ def test_view_without_display(monkeypatch, capsys):
 def test_view_bad_input(capsys):
     """A scene with --site, an unknown solver: exit 2, one line."""
     assert main(["view", "circle", "--site", "left_palm_site"]) == 2
-    assert "give a SCENE or --model/--site/--body, not both" in capsys.readouterr().err
+    assert "give a SCENE or --model/--site/--body/--arm/--limb, not both" in capsys.readouterr().err
     assert main(["view", "circle", "--duration", "0"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "expected a number of seconds > 0, got '0'" in err

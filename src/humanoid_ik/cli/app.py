@@ -15,8 +15,10 @@ import signal
 import sys
 import threading
 import traceback
+import warnings
 from collections.abc import Sequence
 from importlib.metadata import version
+from typing import Any, TextIO
 
 from humanoid_ik.cli import (
     bench,
@@ -31,13 +33,20 @@ from humanoid_ik.cli import (
     sweep,
     view,
 )
-from humanoid_ik.cli.args import Parser
+from humanoid_ik.cli.args import Parser, add_joints_arg, add_package_arg
 from humanoid_ik.cli.interrupts import interrupted
+from humanoid_ik.core.robot_files import ModelWarning
 from humanoid_ik.errors import HumanoidIKError
 
 __all__ = ["build_parser", "main"]
 
 _COMMANDS = (solve, bench, inspect, render, scenes, run, replay, export, view, sweep, dataset)
+_MODEL_COMMANDS = ("inspect", "view", "replay", "export-bvh", "export-keyframes")
+"""The commands with a ``--model`` of their own (not ``add_chain_args``'), which get
+``--package-path`` here: every command that takes ``--model`` takes it."""
+_JOINTS_COMMANDS = ("inspect", "view")
+"""The commands with an end effector of their own that get ``--joints`` here, as the
+``add_chain_args`` commands (solve, bench, dataset) have it."""
 
 EXIT_INTERRUPTED = 130
 """Ctrl-C: 128 + SIGINT."""
@@ -76,10 +85,14 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     for command in _COMMANDS:
         command.register(sub)
-    for command_parser in sub.choices.values():
+    for name, command_parser in sub.choices.items():
         command_parser.add_argument(
             "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
         )
+        if name in _MODEL_COMMANDS:
+            add_package_arg(command_parser)
+        if name in _JOINTS_COMMANDS:
+            add_joints_arg(command_parser)
     return parser
 
 
@@ -93,8 +106,37 @@ def _quiet_stdout() -> None:
         pass
 
 
+def _show_notes() -> Any:
+    """A ``warnings.showwarning`` that prints a :class:`ModelWarning` (a model file's
+    mistake fixed while loading) as one ``humanoid-ik: note: ...`` line on stderr, and
+    any other warning as Python does."""
+    shown = warnings.showwarning
+
+    def show(
+        message: Warning | str,
+        category: type[Warning],
+        filename: str,
+        lineno: int,
+        file: TextIO | None = None,
+        line: str | None = None,
+    ) -> None:
+        if issubclass(category, ModelWarning):
+            print(f"humanoid-ik: note: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_notes()
+        warnings.simplefilter("default", ModelWarning)  # each note once
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args_list
     sigterms: list[int] = []

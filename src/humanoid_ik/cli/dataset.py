@@ -16,6 +16,7 @@ from humanoid_ik.cli.args import (
     int_in,
     names,
     nonempty_path,
+    package_paths,
 )
 from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.experiments.dataset import MAX_CHUNK, MAX_PAIRS, write_dataset
@@ -45,6 +46,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
             site=args.site,
             joints=names(args.joints),
             progress=progress,
+            packages=package_paths(args),
         )
     finally:
         if bar is not None:

@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.cli.args import check_writable, int_at_least, nonempty_path
+from humanoid_ik.cli.args import check_writable, int_at_least, nonempty_path, package_paths
 
 __all__ = ["register"]
 
@@ -23,7 +23,7 @@ def _checked(args: argparse.Namespace) -> tuple[Any, Any]:
     from humanoid_ik.outputs.trajectory import open_trajectory
 
     check_writable(Path(args.out))
-    traj, model, _ = open_trajectory(args.trajectory, args.model)
+    traj, model, _ = open_trajectory(args.trajectory, args.model, packages=package_paths(args))
     return traj, model
 
 
@@ -68,8 +68,11 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "export-bvh",
         help="write a trajectory as a BVH skeleton for animation tools",
-        description="Write a trajectory.npz (or .csv) as a BVH file: the model's body "
-        "tree with one rotation channel per hinge, Y up (see docs/formats.md).",
+        description="Write a trajectory.npz (or .csv) as a BVH file: the model's joint "
+        "tree, one rotation channel per hinge along a world axis (three for a slanted "
+        "hinge or a ball joint), fixed links folded in, Y up (see docs/formats.md). A "
+        "model BVH cannot hold (a slide joint that moves, hinges of one body about two "
+        "points) is refused: export-keyframes writes any model's motion.",
     )
     _common(p, "the .bvh file to write")
     p.add_argument(

@@ -15,7 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.cli.args import UsageError, nonempty_path
+from humanoid_ik.cli.args import UsageError, nonempty_path, package_paths
 from humanoid_ik.cli.scene_args import frame_size, report_files
 
 __all__ = ["register"]
@@ -28,7 +28,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from humanoid_ik.outputs.render.pipeline import replay_trajectory
     from humanoid_ik.outputs.trajectory import open_trajectory
 
-    traj, model, digest = open_trajectory(args.trajectory, args.model, staged=True)
+    traj, model, digest = open_trajectory(
+        args.trajectory, args.model, staged=True, packages=package_paths(args)
+    )
     rs = traj.render
     rs = replace(
         rs,

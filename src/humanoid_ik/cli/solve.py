@@ -1,9 +1,12 @@
-"""``humanoid-ik solve``: solve one target and print the joint values."""
+"""``humanoid-ik solve``: solve one target and print the joint values, the errors and the
+solve's CPU and wall time."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
+import time
 from typing import Any
 
 import numpy as np
@@ -11,9 +14,9 @@ import numpy as np
 from humanoid_ik.cli.args import add_chain_args, chain_from_args, floats, options
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.models import bundled_model_path, display_model
-from humanoid_ik.core.types import Target
-from humanoid_ik.experiments.inspection import range_hints
-from humanoid_ik.solvers import SOLVERS, solve
+from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.experiments.inspection import home_warning, range_hints
+from humanoid_ik.solvers import SOLVERS, make_solver
 
 __all__ = ["register"]
 
@@ -24,7 +27,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         None if args.quat is None else floats(args.quat, 4, "--quat"),
     )
     chain = chain_from_args(args)
-    result = solve(chain, target, args.solver, **options(args.option))
+    home = home_warning(chain.model)
+    if home is not None:
+        print(f"humanoid-ik: warning: {home}", file=sys.stderr)
+    result, cpu, wall = _timed_solve(chain, target, args.solver, options(args.option))
     hints = [] if result.converged else _hints(chain, args.model)
     if args.json:
         doc = {
@@ -35,7 +41,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
                 "quat": None if target.quat is None else target.quat.tolist(),
             },
             **result.to_dict(chain.joint_names),
+            "solve_cpu_s": cpu,
+            "solve_wall_s": wall,
             "hints": hints,
+            "warnings": [] if home is None else [home],
         }
         print(json.dumps(doc, indent=2))
     else:
@@ -49,11 +58,27 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         print(f"position error     {result.position_error:.3e} m")
         if result.orientation_error is not None:
             print(f"orientation error  {result.orientation_error:.3e} rad")
+        print(f"solve time         {cpu * 1e3:.3f} ms CPU, {wall * 1e3:.3f} ms wall")
         if result.message:
             print(f"note: {result.message}")
         for hint in hints:
             print(f"hint: {hint}")
     return 0 if result.converged else 1
+
+
+def _timed_solve(
+    chain: Chain, target: Target, solver: str, opts: dict[str, Any]
+) -> tuple[IKResult, float, float]:
+    """The solve, its process CPU time and its wall time [s] (``time.process_time``,
+    ``time.perf_counter``); what the solver builds once per chain (its
+    :meth:`~humanoid_ik.solvers.base.Solver.prepare`) is built before the clocks start,
+    as ``bench`` does."""
+    s = make_solver(solver, **opts)
+    s.prepare(chain)
+    chain.reset()
+    c0, w0 = time.process_time(), time.perf_counter()
+    result = s.solve(chain, target)
+    return result, time.process_time() - c0, time.perf_counter() - w0
 
 
 def _hints(chain: Chain, model: str | None) -> list[str]:

@@ -1,10 +1,10 @@
 """The ``view`` subcommand of ``humanoid-ik``: MuJoCo's interactive viewer, live.
 
-``humanoid-ik view [SCENE | --model PATH --site NAME | --body NAME] [--solver NAME]
-[--duration S]
-[--out DIR]`` opens the viewer with the targets as mocap bodies: the scene's motions
-play (space pauses them), any target can be dragged (double-click it, then Ctrl +
-right-drag; Backspace hands it back to its motion) and the solver tracks it live. With
+``humanoid-ik view [SCENE | --model PATH --site NAME | --body NAME [--joints J1,J2...]]
+[--package-path NAME=DIR] [--solver NAME] [--duration S] [--out DIR]`` opens the viewer
+with the targets as mocap bodies: the scene's motions play (space pauses them), any
+target can be dragged (double-click it, then Ctrl + right-drag; Backspace hands it back
+to its motion) and the solver tracks it live. With
 ``--model``/``--site`` (or ``--body``, a URDF link) there is one target, still at the end
 effector's home position until dragged. ``--out`` writes the trajectory of the frames shown on exit.
 """
@@ -16,7 +16,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.cli.args import UsageError, nonempty_path
+from humanoid_ik.cli.args import (
+    UsageError,
+    add_limb_args,
+    chain_from_args,
+    nonempty_path,
+    package_paths,
+)
 from humanoid_ik.cli.scene_args import report_files
 
 __all__ = ["register"]
@@ -26,12 +32,12 @@ def _point_scene(args: argparse.Namespace) -> Any:
     """A one-target scene on ``--model`` at ``--site`` or ``--body``: the target waits at
     the end effector's home position until dragged."""
     from humanoid_ik.config.specs import EffectorSpec, Scene, SolverSpec
-    from humanoid_ik.core.chain import Chain
     from humanoid_ik.core.models import bundled_model_path
     from humanoid_ik.motion import TargetTrack
     from humanoid_ik.motion.paths import Points
 
-    chain = Chain(args.model, args.site, body=args.body)
+    packages = package_paths(args)
+    chain = chain_from_args(args)
     home = chain.position.copy()
     site, body = (chain.ee_name, None) if chain.ee_kind == "site" else (None, chain.ee_name)
     return Scene(
@@ -40,8 +46,9 @@ def _point_scene(args: argparse.Namespace) -> Any:
         fps=30.0,
         solver=SolverSpec(args.solver or "auto"),
         targets=(TargetTrack("target", Points(points=home[None, :])),),
-        effectors=(EffectorSpec(site, "target", body=body),),
+        effectors=(EffectorSpec(site, "target", joints=tuple(chain.joint_names), body=body),),
         model=Path(args.model) if args.model is not None else bundled_model_path(),
+        packages=packages,
     )
 
 
@@ -49,13 +56,17 @@ def _cmd_view(args: argparse.Namespace) -> int:
     from humanoid_ik.config.scene import check_scene, load_scene
     from humanoid_ik.outputs.viewer import check_display, view_scene
 
-    if args.scene is not None and (args.model, args.site, args.body) != (None, None, None):
-        raise UsageError("give a SCENE or --model/--site/--body, not both")
+    chain_args = (args.model, args.site, args.body, args.joints, args.arm, args.limb)
+    if args.scene is not None and (any(a is not None for a in chain_args) or args.with_torso):
+        raise UsageError(
+            "give a SCENE or --model/--site/--body/--arm/--limb, not both (--joints goes "
+            "with --model)"
+        )
     check_display()
     if args.scene is None:
         scene = _point_scene(args)
     else:
-        scene = load_scene(args.scene)
+        scene = load_scene(args.scene, packages=package_paths(args))
         if args.solver is not None:
             from humanoid_ik.solvers import SOLVERS
 
@@ -111,6 +122,7 @@ def register(subparsers: Any) -> None:
     ee = p.add_mutually_exclusive_group()
     ee.add_argument("--site", help="end-effector site (default: right_palm_site)")
     ee.add_argument("--body", help="end-effector body, e.g. a URDF link (instead of --site)")
+    add_limb_args(p, ee)
     p.add_argument("--solver", metavar="NAME", help="the solver (default: the scene's, or auto)")
     p.add_argument(
         "--duration", type=_duration, metavar="S", help="close after S seconds of frames"

@@ -6,6 +6,7 @@ A scene is a TOML file (read with ``tomllib``)::
     name = "circle"                    # optional, default: the file name
     description = "Right hand traces a circle."
     model = "../models/humanoid/scene.xml"   # optional, relative to the scene file
+    # package_path = { my_robot = "../my_robot" }   # ROS packages of a URDF's package://
     duration = 6.0                     # [s]
     fps = 30                           # frames per second
 
@@ -84,6 +85,7 @@ from humanoid_ik.core.models import (
     bundled_dir,
     bundled_model_path,
 )
+from humanoid_ik.core.robot_files import PackagePaths
 from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.motion import MOTIONS, Motion, Orientation, TargetTrack
 from humanoid_ik.solvers import SOLVERS, make_solver
@@ -143,7 +145,8 @@ def find_scene(name_or_path: str | os.PathLike) -> Path:
 _TOP = {
     "name": NAME,
     "description": "a string",
-    "model": "an MJCF or URDF path (relative to the scene file)",
+    "model": "an MJCF, URDF or xacro path (relative to the scene file)",
+    "package_path": 'a table of ROS package folders, NAME = "DIR" (relative to the file)',
     "duration": "a number > 0 (seconds)",
     "fps": f"a number >= {MIN_FPS:g} and <= {MAX_FPS:g} (frames per second)",
     "solver": "a table with name (and options)",
@@ -364,14 +367,23 @@ def frames_limit(scene: Scene) -> int:
     return max(1, limit)
 
 
-def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -> Scene:
+def parse_scene(
+    doc: Mapping[str, Any],
+    source: str,
+    base: Path | None = None,
+    *,
+    packages: PackagePaths | None = None,
+) -> Scene:
     """A :class:`Scene` from a parsed TOML document (names are not checked against the
     model; :func:`load_scene` does that).
 
     Args:
         doc: the document, as ``tomllib`` returns it.
         source: the file for messages.
-        base: the folder relative model paths start from (default: the working folder).
+        base: the folder relative model and package paths start from (default: the
+            working folder).
+        packages: ROS package folders that take precedence over the document's
+            ``package_path`` table (``--package-path``, a sweep file's table).
 
     Raises:
         SceneError: an unknown key, a missing one, a wrong type or a bad value.
@@ -386,6 +398,7 @@ def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -
     if not isinstance(description, str):
         raise r.expect("description", "a string", description)
     model = _model_path(r, doc, base)
+    table = r.package_paths("package_path", doc.get("package_path", {}), base)
     duration = r.call("", check_number, "duration", doc["duration"], low=0.0, strict=True)
     fps = r.call("", check_number, "fps", doc.get("fps", 30), low=MIN_FPS, high=MAX_FPS)
     check_duration(r, duration, fps)
@@ -404,12 +417,17 @@ def parse_scene(doc: Mapping[str, Any], source: str, base: Path | None = None) -
         model=model,
         description=description,
         path=Path(source) if is_file else None,
+        packages={**table, **(packages or {})},
     )
 
 
 # ----------------------------------------------------------------------------- model checks
-def load_scene(path: str | os.PathLike) -> Scene:
+def load_scene(path: str | os.PathLike, *, packages: PackagePaths | None = None) -> Scene:
     """Read, validate and check a scene file (or a bundled scene's name) against its model.
+
+    Args:
+        path: the file, or a bundled scene's name.
+        packages: ROS package folders ``{NAME: DIR}``, over the file's ``package_path``.
 
     Raises:
         SceneError: the file is missing or not TOML, or any value is wrong; the message
@@ -417,6 +435,6 @@ def load_scene(path: str | os.PathLike) -> Scene:
     """
     p = find_scene(path)
     source = display_path(p)
-    scene = parse_scene(read_toml(p, source, SceneError), source, p.parent)
+    scene = parse_scene(read_toml(p, source, SceneError), source, p.parent, packages=packages)
     check_scene(scene)
     return scene

@@ -226,7 +226,7 @@ def scene_model(scene: Scene) -> mujoco.MjModel:
         SceneError: the model file does not compile (``model`` key).
     """
     try:
-        return load_model(scene.model)
+        return load_model(scene.model, packages=scene.packages)
     except HumanoidIKError as exc:
         raise SceneError(scene.source, "model", str(exc)) from None
 

@@ -183,9 +183,11 @@ class Scene:
         targets: the moving targets.
         effectors: which site tracks which target.
         render: how it is filmed.
-        model: the MJCF path (the bundled humanoid by default).
+        model: the MJCF, URDF or xacro path (the bundled humanoid by default).
         description: one line for ``humanoid-ik scenes``.
         path: the file it came from (for messages), or ``None``.
+        packages: ROS package folders ``{NAME: DIR}`` a URDF's ``package://NAME/...``
+            paths are looked up in first (the file's ``package_path`` table).
     """
 
     name: str
@@ -198,11 +200,13 @@ class Scene:
     model: Path = field(default_factory=bundled_model_path)
     description: str = ""
     path: Path | None = None
+    packages: Mapping[str, Path] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))
         object.__setattr__(self, "effectors", tuple(self.effectors))
         object.__setattr__(self, "model", Path(self.model))
+        object.__setattr__(self, "packages", {str(k): Path(v) for k, v in self.packages.items()})
 
     @property
     def n_frames(self) -> int:

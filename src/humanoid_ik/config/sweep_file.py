@@ -6,6 +6,7 @@ A sweep is a TOML file (read with ``tomllib``)::
     name = "compare_solvers"           # optional, default: the file name
     description = "..."
     seeds = [0, 1, 2]                  # default [0]
+    # package_path = { my_robot = "../my_robot" }   # ROS packages of a URDF's package://
 
     [[solvers]]                        # or solvers = ["dls", "ccd"]
     name = "dls"
@@ -52,7 +53,7 @@ from humanoid_ik.config.toml import NAME, TomlReader, display_path, read_toml
 from humanoid_ik.core.chain import DEFAULT_SITE, Chain
 from humanoid_ik.core.checks import MAX_TARGETS
 from humanoid_ik.core.model_files import model_digest, model_files
-from humanoid_ik.core.models import bundled_model_path
+from humanoid_ik.core.models import bundled_model_path, load_model
 from humanoid_ik.core.types import TARGET_KINDS
 from humanoid_ik.errors import HumanoidIKError, SweepError, show_value
 from humanoid_ik.motion import RandomWalk
@@ -108,6 +109,9 @@ class Job:
             files), for a target set ``task``, ``n``, ``site``, ``joints``, ``model`` (as
             written in the sweep file) and ``model_sha256``.
         location: the scene file or model to load (resolved); not part of the id.
+        packages: the sweep file's ROS package folders as sorted ``(NAME, DIR)`` pairs,
+            given to the scene or model it loads (:meth:`package_dict`); not part of the
+            id (``model_sha256`` covers the files they lead to).
     """
 
     kind: str
@@ -117,12 +121,20 @@ class Job:
     seed: int | None = None
     params: tuple[tuple[str, Any], ...] = ()
     location: str = field(default="", compare=False)
+    packages: tuple[tuple[str, str], ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise SweepError(None, "kind", f"expected one of {', '.join(KINDS)}, got {self.kind!r}")
         object.__setattr__(self, "options", _frozen(dict(self.options)))
         object.__setattr__(self, "params", _frozen(dict(self.params)))
+        pairs = sorted((str(k), str(v)) for k, v in dict(self.packages).items())
+        object.__setattr__(self, "packages", tuple(pairs))
+
+    @property
+    def package_dict(self) -> dict[str, Path]:
+        """``packages`` as ``{NAME: DIR}``, for ``load_model(..., packages=)``."""
+        return {k: Path(v) for k, v in self.packages}
 
     @property
     def id(self) -> str:
@@ -188,6 +200,7 @@ _TOP = {
     "solvers": "a non-empty list of solver names or tables [[solvers]] with name",
     "scenes": "a list of tables [[scenes]] with scene",
     "targets": "a list of tables [[targets]] with name and n",
+    "package_path": 'a table of ROS package folders, NAME = "DIR" (relative to the file)',
 }
 _SOLVER = {
     "name": "a solver name",
@@ -281,8 +294,11 @@ def scene_digest(path: str | os.PathLike) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
 
 
-def _scene_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[str, Any]]:
-    """One set per ``[[scenes]]`` entry, its scene loaded and checked now."""
+def _scene_sets(
+    r: TomlReader, doc: Mapping[str, Any], base: Path, packages: Mapping[str, Path]
+) -> list[dict[str, Any]]:
+    """One set per ``[[scenes]]`` entry, its scene loaded and checked now (``packages``
+    over the scene file's own ``package_path``)."""
     out = []
     for i, entry in enumerate(r.array("scenes", doc, _TOP["scenes"])):
         key = f"scenes[{i}]"
@@ -295,7 +311,7 @@ def _scene_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[
         rel = base / ref
         try:
             path = find_scene(rel if rel.is_file() else ref)
-            scene = load_scene(path)
+            scene = load_scene(path, packages=packages)
         except HumanoidIKError as exc:
             raise r.fail(f"{key}.scene", str(exc)) from None
         frames = tbl.get("frames")
@@ -308,7 +324,7 @@ def _scene_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[
                 "params": {
                     "frames": frames or scene.n_frames,
                     "scene_sha256": scene_digest(path),
-                    "model_sha256": model_digest(scene.model),
+                    "model_sha256": model_digest(scene.model, packages=scene.packages),
                 },
                 "location": str(path.resolve()),
                 "seeded": _has_random_motion(scene),
@@ -317,8 +333,11 @@ def _scene_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[
     return out
 
 
-def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict[str, Any]]:
-    """One set per ``[[targets]]`` entry, its chain built once to check it."""
+def _target_sets(
+    r: TomlReader, doc: Mapping[str, Any], base: Path, packages: Mapping[str, Path]
+) -> list[dict[str, Any]]:
+    """One set per ``[[targets]]`` entry, its chain built once to check it (the model
+    loaded with ``packages``)."""
     out = []
     for i, entry in enumerate(r.array("targets", doc, _TOP["targets"])):
         key = f"targets[{i}]"
@@ -348,7 +367,7 @@ def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict
             raise r.expect(f"{key}.joints", _TARGETS["joints"], joints)
         location = bundled_model_path() if model is None else (base / model).resolve()
         try:
-            Chain(location, site, joints, body=body)
+            Chain(load_model(location, packages=packages), site, joints, body=body)
         except HumanoidIKError as exc:
             kind = getattr(exc, "kind", "")
             sub = {"site": "site", "body": "body", "joint": "joints"}.get(
@@ -365,7 +384,7 @@ def _target_sets(r: TomlReader, doc: Mapping[str, Any], base: Path) -> list[dict
                     "site": site,
                     "joints": joints,
                     "model": model,
-                    "model_sha256": model_digest(location),
+                    "model_sha256": model_digest(location, packages=packages),
                     # only when given, so the ids of site target sets stay as they were
                     **({} if body is None else {"body": body}),
                 },
@@ -395,8 +414,9 @@ def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -
     if not isinstance(description, str):
         raise r.expect("description", _TOP["description"], description)
     seeds = _seeds(r, doc)
+    packages = r.package_paths("package_path", doc.get("package_path", {}), base)
     configs = _solver_configs(r, doc)
-    sets = _scene_sets(r, doc, base) + _target_sets(r, doc, base)
+    sets = _scene_sets(r, doc, base, packages) + _target_sets(r, doc, base, packages)
     if not sets:
         raise r.fail("scenes", "no scenes and no targets; give [[scenes]] or [[targets]]")
     count = sum(len(configs) * (len(seeds) if s["seeded"] else 1) for s in sets)
@@ -419,6 +439,7 @@ def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -
                     seed,
                     _frozen(params),
                     location=s["location"],
+                    packages=tuple((k, str(v)) for k, v in packages.items()),
                 )
                 jobs.append(job)
     seen: dict[str, int] = {}

@@ -17,6 +17,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from humanoid_ik.core.robot_files import package_problem
 from humanoid_ik.errors import HumanoidIKError, MotionError, SceneError, show_value
 
 __all__ = ["NAME", "TomlReader", "display_path", "join_key", "quote_key", "read_toml"]
@@ -161,6 +162,24 @@ class TomlReader:
         if not ok:
             raise self.expect(key, NAME, value)
         return value
+
+    def package_paths(self, key: str, value: Any, base: Path | None) -> dict[str, Path]:
+        """``value`` when it is a ``package_path`` table ``{ NAME = "DIR" }``: ROS package
+        folders (``core/robot_files.py``), a relative ``DIR`` relative to ``base`` (the
+        file's folder; the working folder for ``None``), each an existing folder."""
+        table = self.table(key, value)
+        out: dict[str, Path] = {}
+        for name, folder in table.items():
+            at = join_key(key, quote_key(name))
+            if not isinstance(folder, str) or not folder:
+                raise self.expect(at, "a package folder (a string)", folder)
+            path = Path(folder).expanduser()
+            path = path if path.is_absolute() else (base or Path(".")) / path
+            problem = package_problem(str(name), path)
+            if problem is not None:
+                raise self.fail(at, problem)
+            out[str(name)] = path
+        return out
 
     def array(self, key: str, doc: Mapping[str, Any], what: str) -> list:
         """``doc[key]`` when it is an array (an empty one when absent)."""

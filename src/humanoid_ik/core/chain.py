@@ -30,11 +30,18 @@ from humanoid_ik.errors import (
     UnsupportedJointError,
 )
 
-__all__ = ["Chain", "DEFAULT_SITE"]
+__all__ = ["Chain", "DEFAULT_SITE", "REACH_METHOD", "REACH_SAMPLES", "REACH_STARTS", "end_bodies"]
 
 T = TypeVar("T")
 
 DEFAULT_SITE = "right_palm_site"
+REACH_SAMPLES = 500
+"""How many seeded random joint vectors inside the ranges :meth:`Chain.reach` samples."""
+REACH_STARTS = 3
+"""How many of the farthest samples it refines by gradient ascent."""
+REACH_METHOD = f"sampled, {REACH_SAMPLES} poses"
+"""How :meth:`Chain.reach` finds the reach, as reports print it."""
+_REACH_SEED = 0
 _JOINT_TYPE_NAMES = {
     mujoco.mjtJoint.mjJNT_FREE: "free",
     mujoco.mjtJoint.mjJNT_BALL: "ball",
@@ -52,6 +59,27 @@ def _check_args(site: Any, body: Any, joints: Any) -> None:
         return
     if not isinstance(joints, Sequence) or not all(isinstance(j, str) for j in joints):
         raise ChainError(f"joints must be a list of joint names, got {joints!r}")
+
+
+def end_bodies(model: mujoco.MjModel) -> list[str]:
+    """Named bodies without child bodies that a joint moves, in model order: the end
+    effectors a model without sites offers (``--body NAME``)."""
+    parents = set(model.body_parentid[1:].tolist())
+    found = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(model.nbody)]
+    return [n for b, n in enumerate(found) if n and b not in parents and model.body_weldid[b]]
+
+
+def _no_default_site(model: mujoco.MjModel) -> NameNotFoundError:
+    """The error of a chain on a model without the default site: it points at ``--body``
+    and names a few bodies that could be end effectors."""
+    sites = names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite)
+    err, ends = NameNotFoundError("site", DEFAULT_SITE, sites), end_bodies(model)
+    shown = ", ".join(ends[:8]) + (f" (and {len(ends) - 8} more)" if len(ends) > 8 else "")
+    err.args = (
+        f"{err} (the default end effector); name one with --body NAME (body=NAME) or --site "
+        f"NAME (site=NAME); bodies at the end of a hinge chain: {shown or '(none)'}",
+    )
+    return err
 
 
 class Chain:
@@ -97,8 +125,10 @@ class Chain:
             self.ee_kind, self.ee_id, self.ee_name = "body", bid, body
             ee_body = bid
         else:
-            site = DEFAULT_SITE if site is None else site
+            default, site = site is None, DEFAULT_SITE if site is None else site
             sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
+            if sid < 0 and default:
+                raise _no_default_site(m)
             if sid < 0:
                 raise NameNotFoundError("site", site, names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite))
             self.ee_kind, self.ee_id, self.ee_name = "site", sid, site
@@ -418,14 +448,36 @@ class Chain:
         self.set_q(keep)
         return anchors, axes / np.linalg.norm(axes, axis=1, keepdims=True)
 
-    def reach(self) -> tuple[NDArray[np.float64], float]:
-        """The chain's base point ``(3,)`` [m] and an upper bound of its reach [m].
+    @property
+    def base(self) -> NDArray[np.float64]:
+        """The chain's base point ``(3,)`` [m]: its first joint's anchor, from the last
+        kinematics pass (a view)."""
+        return self.data.xanchor[self.joint_ids[0]]
 
-        The base is the first joint's anchor; the reach is the length of the polyline
-        through the distinct joint anchors to the end effector, ``sum |a_{k+1} - a_k| +
-        |p - a_last|``, measured at the chain's current pose (joints are hinges, so these
-        distances never change); the chain is left as it was.
+    def reach(self) -> tuple[NDArray[np.float64], float]:
+        """The chain's base point ``(3,)`` [m] and its reach [m]: the largest distance from
+        the base that the end effector attains with the joints inside their ranges.
+
+        The base is the first joint's anchor at the current pose. The reach is sampled
+        (:data:`REACH_METHOD`): MuJoCo FK at :data:`REACH_SAMPLES` seeded uniform joint
+        vectors in the ranges (unlimited joints in [-pi, pi]), then projected gradient
+        ascent on the distance from the :data:`REACH_STARTS` farthest, joints off the
+        chain held. It is at most :meth:`reach_bound`, and that bound when within 0.01 %
+        of it (the true reach lies between the two). Kept in the robot's workspace
+        (:meth:`derived`) while the joints off the chain keep their values; the chain is
+        left as it was.
         """
+        return self.base.copy(), self._sampled()[0]
+
+    def reach_mean(self) -> NDArray[np.float64]:
+        """The mean offset ``(3,)`` [m] of the end effector from the base over the samples
+        of :meth:`reach`: the side toward which the chain reaches."""
+        return self._sampled()[1].copy()
+
+    def reach_bound(self) -> float:
+        """An upper bound of :meth:`reach` [m]: the length of the polyline through the
+        distinct joint anchors to the end effector, ``sum |a_{k+1} - a_k| + |p - a_last|``
+        (hinges keep these distances), attained only when the chain can straighten."""
         self.set_q(self.q)
         anchors, _ = self.joint_axes()
         pts = [anchors[0]]
@@ -433,8 +485,17 @@ class Chain:
             if float(np.linalg.norm(a - pts[-1])) > 1e-9:
                 pts.append(a)
         pts.append(self.position.copy())
-        reach = float(sum(np.linalg.norm(b - a) for a, b in zip(pts[:-1], pts[1:], strict=True)))
-        return anchors[0].copy(), reach
+        return float(sum(np.linalg.norm(b - a) for a, b in zip(pts[:-1], pts[1:], strict=True)))
+
+    def _sampled(self) -> tuple[float, NDArray[np.float64]]:
+        self.set_q(self.q)
+        state = self.base_state()
+        return self.derived(("reach", None if state is None else tuple(state)), _sample_reach)
+
+    def _sample_box(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Where joint vectors are sampled: the ranges, ``[-pi, pi]`` for an unlimited joint."""
+        lo = np.where(np.isfinite(self.lower), self.lower, -math.pi)
+        return lo, np.where(np.isfinite(self.upper), self.upper, math.pi)
 
     def load(self, data: mujoco.MjData) -> None:
         """Copy the caller's ``qpos`` (every joint) into the robot's scratch data
@@ -486,9 +547,52 @@ class Chain:
 
     def random_q(self, rng: np.random.Generator) -> NDArray[np.float64]:
         """A uniform joint vector inside the ranges (unlimited joints in [-pi, pi])."""
-        lo = np.where(np.isfinite(self.lower), self.lower, -math.pi)
-        hi = np.where(np.isfinite(self.upper), self.upper, math.pi)
-        return rng.uniform(lo, hi)
+        return rng.uniform(*self._sample_box())
 
     def __repr__(self) -> str:
         return f"Chain({self.ee_kind}='{self.ee_name}', joints=[{', '.join(self.joint_names)}])"
+
+
+def _sample_reach(chain: Chain) -> tuple[float, NDArray[np.float64]]:
+    """``(reach [m], mean offset (3,) [m])`` of the end effector from the base, sampled as
+    :meth:`Chain.reach` says; the chain is left as it was."""
+    m, d, keep, base = chain.model, chain.data, chain.q, chain.base.copy()
+    rng = np.random.default_rng(_REACH_SEED)
+    qs = rng.uniform(*chain._sample_box(), size=(REACH_SAMPLES, chain.n))
+    pts, xpos = np.empty((REACH_SAMPLES, 3)), d.site_xpos if chain.ee_kind == "site" else d.xpos
+    for i, q in enumerate(qs):  # a plain loop: ~5-10 us a pose
+        d.qpos[chain.qpos_adr] = q
+        mujoco.mj_kinematics(m, d)
+        pts[i] = xpos[chain.ee_id]
+    offsets = pts - base
+    dist = np.linalg.norm(offsets, axis=1)
+    best = float(dist.max())
+    for k in np.argsort(dist)[-REACH_STARTS:]:
+        best = max(best, _climb(chain, base, qs[k], float(dist[k])))
+    chain.set_q(keep)
+    bound = chain.reach_bound()
+    return (bound if best > bound * (1.0 - 1e-4) else best), offsets.mean(axis=0)
+
+
+def _climb(chain: Chain, base: NDArray[np.float64], q: NDArray[np.float64], dist: float) -> float:
+    """Projected gradient ascent of the end effector's distance from ``base`` [m], from
+    ``q`` (at distance ``dist``) inside the ranges, until a step gains less than 0.1 um
+    per metre; returns the largest distance reached."""
+    lo, hi, step = chain.lower, chain.upper, 0.1
+    chain.set_q(q)
+    for _ in range(40 if dist > 1e-12 else 0):  # an effector on the base has no gradient
+        grad = chain.current_jacobian()[:3].T @ ((chain.position - base) / dist)
+        grad[((q <= lo) & (grad < 0)) | ((q >= hi) & (grad > 0))] = 0.0
+        norm, start = float(np.linalg.norm(grad)), dist
+        while step > 1e-9 and norm > 1e-12:
+            trial = np.minimum(np.maximum(q + (step / norm) * grad, lo), hi)
+            chain.set_q(trial)
+            far = float(np.linalg.norm(chain.position - base))
+            if far > dist:
+                q, dist, step = trial, far, 2.0 * step
+                break
+            step /= 2.0
+        if dist - start < 1e-7 * dist:
+            break
+        chain.set_q(q)  # the kinematics at q (a failed trial may be the last pass)
+    return dist

@@ -7,6 +7,8 @@ rule for each is written once.
 from __future__ import annotations
 
 import os
+import re
+import warnings
 from importlib import resources
 from pathlib import Path
 
@@ -14,11 +16,23 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from humanoid_ik.core.meshes import convert_meshes
+from humanoid_ik.core.model_cache import compile_cached
+from humanoid_ik.core.robot_files import (
+    ModelWarning,
+    PackageIndex,
+    PackagePaths,
+    is_robot_file,
+    robot_text,
+)
 from humanoid_ik.errors import ModelError
 
 __all__ = [
     "BUNDLED_KINDS",
+    "COLLISION_GROUP",
     "HOME_KEY",
+    "ModelWarning",
+    "VISUAL_GROUP",
     "bundled_dir",
     "bundled_model_path",
     "home_qpos",
@@ -98,23 +112,32 @@ def display_model(model: str | os.PathLike | None) -> str:
         return path.name
 
 
-def load_model(model: mujoco.MjModel | str | os.PathLike | None) -> mujoco.MjModel:
-    """An ``MjModel`` from a model, an MJCF or URDF path, or ``None`` for the bundled
-    humanoid.
+def load_model(
+    model: mujoco.MjModel | str | os.PathLike | None,
+    *,
+    packages: PackagePaths | None = None,
+) -> mujoco.MjModel:
+    """An ``MjModel`` from a model, an MJCF, URDF or xacro path, or ``None`` for the
+    bundled humanoid.
 
-    A URDF (``.urdf``) is compiled by MuJoCo through :func:`model_spec`, which keeps
-    links on fixed joints as bodies (a tool link can be the end effector), gives a link
-    without mass a nominal one, and finds ``package://`` meshes beside the file.
+    A URDF (``.urdf``, ``.urdf.xacro``) is compiled through :func:`model_spec` (its
+    ``package://`` meshes found, visual and collision geoms both kept) and
+    :func:`compile_spec` (a known mistake of the file fixed, with a note).
+
+    Args:
+        model: the model, a file path, or ``None``.
+        packages: ROS package folders ``{NAME: DIR}`` a URDF's ``package://NAME/...``
+            paths are looked up in first (``core/robot_files.py``).
 
     Raises:
-        ModelError: the path does not exist, or MuJoCo cannot compile it (MuJoCo's
-            message is kept, with the fix for the URDF mistakes it names).
+        ModelError: the path does not exist, a mesh is not found, or MuJoCo cannot
+            compile it (MuJoCo's message is kept, with the fix for the mistakes it names).
     """
     if isinstance(model, mujoco.MjModel):
         return model
     path = model_file(model)
-    if _is_urdf(path):
-        return compile_spec(model_spec(path), path)
+    if is_robot_file(path):
+        return compile_spec(model_spec(path, packages=packages), path)
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
@@ -126,6 +149,12 @@ URDF_MIN_MASS = 1e-6
 rejects massless moving bodies; inverse kinematics never uses masses)."""
 URDF_MIN_INERTIA = 1e-9
 """Inertia [kg m^2] such a link gets, for the same reason."""
+VISUAL_GROUP = 2
+"""The geom group of a URDF's ``<visual>`` geoms: drawn (MuJoCo shows groups 0-2 by
+default), colliding with nothing."""
+COLLISION_GROUP = 3
+"""The geom group of a URDF's ``<collision>`` geoms: colliding, hidden in renders and in
+the viewer (toggle group 3 there to see them)."""
 
 
 def model_file(model: str | os.PathLike | None) -> Path:
@@ -140,73 +169,186 @@ def model_file(model: str | os.PathLike | None) -> Path:
     return path
 
 
-def _is_urdf(path: Path) -> bool:
-    return path.suffix.lower() == ".urdf"
-
-
 def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split())
 
 
-def model_spec(model: str | os.PathLike | None) -> mujoco.MjSpec:
-    """The editable ``MjSpec`` of an MJCF or URDF file (``None``: the bundled humanoid).
+def model_spec(
+    model: str | os.PathLike | None, *, packages: PackagePaths | None = None
+) -> mujoco.MjSpec:
+    """The editable ``MjSpec`` of an MJCF, URDF or xacro file (``None``: the bundled
+    humanoid).
 
-    For a URDF, three things MuJoCo's URDF reader does by default are changed so a robot
-    exported from ROS works as it is: links on fixed joints stay bodies
-    (``fusestatic`` off: a ``tool_link`` stays nameable with ``--body``); a link with no
-    ``<inertial>`` and no geometry gets :data:`URDF_MIN_MASS` (``boundmass``); a
-    ``package://PKG/path`` mesh is looked up beside the URDF and one folder up.
+    A URDF is read as a robot exported from ROS needs:
+
+    - a xacro file is expanded first;
+    - every mesh and texture path (``package://``, ``file://``, relative) becomes the
+      absolute file it names (:class:`~humanoid_ik.core.robot_files.PackageIndex`:
+      ``packages``, ``ROS_PACKAGE_PATH``, ``AMENT_PREFIX_PATH``, the folders above the
+      file), and meshes MuJoCo cannot read (Collada, glTF) are converted;
+    - ``<visual>`` and ``<collision>`` geoms are both kept: visuals in
+      :data:`VISUAL_GROUP`, drawn and colliding with nothing; collisions in
+      :data:`COLLISION_GROUP`, colliding and hidden. A URDF without any
+      ``<collision>`` lets its visuals collide (else nothing would);
+    - links on fixed joints stay bodies (a ``tool_link`` stays nameable with
+      ``--body``), except a root link that only carries a floating base: it is fused
+      into the world, so the floating joint is at the top level (MuJoCo's rule for a
+      free joint);
+    - a link with no ``<inertial>`` and no collision geometry gets
+      :data:`URDF_MIN_MASS` (``boundmass``).
+
+    Args:
+        model: a model file path, or ``None``.
+        packages: as :func:`load_model`.
 
     Raises:
-        ModelError: the file does not exist or cannot be parsed.
+        ModelError: the file does not exist or cannot be parsed, or a mesh or texture
+            is not found (the message names every place looked in).
     """
     path = model_file(model)
+    if not is_robot_file(path):
+        try:
+            return mujoco.MjSpec.from_file(str(path))
+        except ValueError as exc:
+            raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
+    index = PackageIndex(path, packages)
     try:
-        spec = mujoco.MjSpec.from_file(str(path))
+        spec = mujoco.MjSpec.from_string(robot_text(path, index))
     except ValueError as exc:
         raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
-    if _is_urdf(path):
-        spec.compiler.fusestatic = False
-        spec.compiler.discardvisual = False  # else a stage's floor (no contacts) is dropped
-        spec.compiler.boundmass = URDF_MIN_MASS
-        spec.compiler.boundinertia = URDF_MIN_INERTIA
-        for mesh in spec.meshes:
-            mesh.file = _package_file(mesh.file, path.parent)
+    spec.modelfiledir = str(index.folder)
+    for mesh in spec.meshes:
+        if mesh.file:
+            mesh.file = str(index.resolve(mesh.file, spec.compiler.meshdir))
+    for texture in spec.textures:
+        if texture.file:
+            texture.file = str(index.resolve(texture.file, spec.compiler.texturedir, "texture"))
+    spec.compiler.discardvisual = False  # else a stage's floor (no contacts) is dropped
+    spec.compiler.boundmass = URDF_MIN_MASS
+    spec.compiler.boundinertia = URDF_MIN_INERTIA
+    spec.compiler.inertiagrouprange = [COLLISION_GROUP, COLLISION_GROUP]
+    _fuse_floating_roots(spec)
+    _group_geoms(spec)
+    convert_meshes(spec)
     return spec
 
 
-def _package_file(name: str, folder: Path) -> str:
-    """A ``package://PKG/rest`` (or ``package:/``) mesh name as a file beside the URDF or
-    one folder up, when one exists; other names unchanged."""
-    if not name.startswith("package:"):
-        return name
-    rest = name.split(":", 1)[1].lstrip("/").split("/", 1)[-1]
-    for base in (folder, folder.parent):
-        for candidate in (base / rest, base / Path(rest).name):
-            if candidate.is_file():
-                return str(candidate.resolve())
-    return name
+def _fuse_floating_roots(spec: mujoco.MjSpec) -> None:
+    """Keep every body (``fusestatic`` per body) but a root link without joints whose
+    child has a free joint (a URDF ``floating`` joint from a dummy ``base_link``): it
+    is fused into the world, so the free joint is at the top level."""
+    spec.compiler.fusestatic = True
+    world = spec.worldbody
+    for body in spec.bodies:
+        if body.parent is None:  # the world
+            continue
+        floating_root = (
+            body.parent.name == world.name
+            and not body.joints
+            and any(j.type == mujoco.mjtJoint.mjJNT_FREE for c in body.bodies for j in c.joints)
+        )
+        body.fuse = int(floating_root)
+
+
+def _group_geoms(spec: mujoco.MjSpec) -> None:
+    """Move the URDF's visual geoms to :data:`VISUAL_GROUP` and its collision geoms to
+    :data:`COLLISION_GROUP`.
+
+    MuJoCo's URDF reader marks a ``<visual>`` geom by group 1 with ``contype`` and
+    ``conaffinity`` 0, a ``<collision>`` geom by group 0 with both 1.
+    """
+    geoms = list(spec.geoms)
+    visual = [g.group == 1 and g.contype == 0 and g.conaffinity == 0 for g in geoms]
+    collide_visuals = all(visual)
+    for geom, is_visual in zip(geoms, visual, strict=True):
+        if is_visual:
+            geom.group = VISUAL_GROUP
+            if collide_visuals:
+                geom.contype = geom.conaffinity = 1
+        else:
+            geom.group = COLLISION_GROUP
+
+
+def _balance_inertia(spec: mujoco.MjSpec, name: str) -> bool:
+    if spec.compiler.balanceinertia:
+        return False
+    spec.compiler.balanceinertia = True
+    return True
+
+
+def _shell_inertia(spec: mujoco.MjSpec, name: str) -> bool:
+    mesh = spec.mesh(name)
+    if mesh is None or mesh.inertia == mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL:
+        return False
+    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    return True
+
+
+def _diagonal_inertia(spec: mujoco.MjSpec, name: str) -> bool:
+    body = spec.body(name)
+    if body is None or not any(body.fullinertia[3:]):
+        return False
+    body.fullinertia = [*body.fullinertia[:3], 0.0, 0.0, 0.0]
+    return True
+
+
+_KNOWN_FIXES = (
+    (
+        "use 'balanceinertia' to fix",
+        _balance_inertia,
+        "link '{name}' (and any other) has an inertia that breaks A + B >= C (not a "
+        "physical body); loaded with the inertias balanced, as "
+        '<mujoco><compiler balanceinertia="true"/></mujoco> inside <robot> does; fix '
+        "the link's <inertia> to silence this",
+    ),
+    (
+        "inertia must have positive eigenvalues",
+        _diagonal_inertia,
+        "link '{name}' has an <inertia> that is not positive definite; loaded with its "
+        "diagonal (ixx, iyy, izz) alone; fix its ixy, ixz, iyz to silence this",
+    ),
+    (
+        "mesh volume is too small",
+        _shell_inertia,
+        "mesh '{name}' encloses no volume (an open surface); its inertia is computed as "
+        "a shell's, as MuJoCo's <mesh inertia=\"shell\"> does",
+    ),
+)
+"""``(text of MuJoCo's error, fix(spec, element name) -> whether it changed anything,
+the note)``: the mistakes of robot files that MuJoCo refuses and :func:`compile_spec`
+fixes."""
+_ELEMENT = re.compile(r"Element name '([^']*)'")
 
 
 def compile_spec(spec: mujoco.MjSpec, path: Path) -> mujoco.MjModel:
     """``spec`` (of the model file ``path``) compiled, a failure told in one line with
     its fix.
 
+    The mistakes of :data:`_KNOWN_FIXES` are fixed in ``spec`` (a link's inertia that
+    breaks A + B >= C is balanced, one that is not positive definite loses its
+    off-diagonal terms, an open mesh gets a shell's inertia), each with a
+    :class:`ModelWarning` naming the element and how to fix the file.
+
     Raises:
         ModelError: MuJoCo cannot compile it.
     """
-    try:
-        return spec.compile()
-    except ValueError as exc:
-        msg = _one_line(exc)
-        hint = ""
-        if "Error opening file" in msg or "resource not found" in msg.lower():
-            hint = (
-                "; put the mesh files beside the model (a package:// path is looked up "
-                "beside it and one folder up), or set <compiler meshdir=...> (in a URDF: "
-                '<mujoco><compiler meshdir="..."/></mujoco> inside <robot>)'
-            )
-        raise ModelError(f"model '{path}' does not compile: {msg}{hint}") from exc
+    while True:
+        try:
+            return compile_cached(spec, path)
+        except ValueError as exc:
+            msg = _one_line(exc)
+            found = _ELEMENT.search(msg)
+            name = found.group(1) if found else ""
+            fix = next((f for f in _KNOWN_FIXES if f[0] in msg), None)
+            if fix is None or not fix[1](spec, name):
+                hint = ""
+                if "Error opening file" in msg or "resource not found" in msg.lower():
+                    hint = (
+                        "; put the mesh files where the model names them (an MJCF's "
+                        "<compiler meshdir=...> is relative to the model's folder)"
+                    )
+                raise ModelError(f"model '{path}' does not compile: {msg}{hint}") from exc
+            warnings.warn(f"model '{path}': {fix[2].format(name=name)}", ModelWarning, 2)
 
 
 # ----------------------------------------------------------------------------- stage
@@ -217,8 +359,9 @@ STAGE_CAMERAS = {
     "top": (0.0, -88.0),
 }
 """The cameras a stage adds, by the names the bundled scenes use: (azimuth, elevation)
-[deg] around the framed box; azimuth 0 looks from +x, -90 from -y; elevation < 0 looks
-down."""
+[deg] around the framed box, measured from the robot's forward direction
+(``outputs/stage.py``: ``facing``): azimuth 0 looks at its front, -90 at its right side;
+elevation < 0 looks down."""
 
 
 def needs_stage(model: mujoco.MjModel) -> bool:

@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import os
 import threading
-from collections.abc import Callable, Hashable, Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
+from pathlib import Path
 from typing import Any, TypeVar
 
 import mujoco
@@ -77,8 +78,10 @@ class Robot:
     """One model and its one scratch state, shared by every chain on it.
 
     Args:
-        model: an ``MjModel`` (used as given, never modified), an MJCF or URDF path,
-            or ``None`` for the bundled humanoid.
+        model: an ``MjModel`` (used as given, never modified), an MJCF, URDF or xacro
+            path, or ``None`` for the bundled humanoid.
+        packages: ROS package folders ``{NAME: DIR}`` for a URDF's ``package://``
+            meshes (:func:`~humanoid_ik.core.models.load_model`).
 
     Attributes:
         model: the ``MjModel``.
@@ -91,12 +94,17 @@ class Robot:
             (:meth:`sync`): a cache held outside compares it.
     """
 
-    def __init__(self, model: mujoco.MjModel | str | os.PathLike | None = None):
+    def __init__(
+        self,
+        model: mujoco.MjModel | str | os.PathLike | None = None,
+        *,
+        packages: Mapping[str, Path] | None = None,
+    ):
         if model is not None and not isinstance(model, (mujoco.MjModel, str, os.PathLike)):
             raise ChainError(
                 f"model must be a mujoco.MjModel or a model file path, got {type(model).__name__}"
             )
-        self.model = load_model(model)
+        self.model = load_model(model, packages=packages)
         self.data = mujoco.MjData(self.model)
         self.jac = np.zeros((6, self.model.nv))
         self.jacp, self.jacr = self.jac[:3], self.jac[3:]

@@ -45,7 +45,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.models import display_model
+from humanoid_ik.core.models import display_model, load_model
+from humanoid_ik.core.robot_files import PackagePaths
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.errors import DatasetError, HumanoidIKError
 from humanoid_ik.outputs.atomic import atomic_dir, atomic_path
@@ -124,6 +125,7 @@ def write_dataset(
     site: str | None = None,
     joints: list[str] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    packages: PackagePaths | None = None,
 ) -> Path:
     """Write ``n`` (target pose, joint solution) pairs to ``path`` (``.npz``).
 
@@ -136,6 +138,7 @@ def write_dataset(
         site: end-effector site (default: ``right_palm_site``).
         joints: the chain's joints (default: the hinges from the site to the root).
         progress: called ``(done, n)`` after each chunk.
+        packages: ROS package folders of a URDF's ``package://`` paths.
 
     Returns:
         ``path``.
@@ -161,7 +164,7 @@ def write_dataset(
         raise DatasetError(f"cannot write '{out}': it is a folder; expected a .npz file path")
     if not out.parent.is_dir():
         raise DatasetError(f"cannot write '{out}': folder '{out.parent}' does not exist")
-    chain = Chain(model, site, joints)
+    chain = Chain(load_model(model, packages=packages), site, joints)
     reason = ClosedForm().applicable(chain, True)
     if reason is not None:
         raise DatasetError(f"closed_form does not fit chain {chain.ee_name}: {reason}")

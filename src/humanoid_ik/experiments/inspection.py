@@ -1,33 +1,51 @@
 """What a user needs to start on an unknown robot: the end effectors a model offers, the
 joints the default rule picks for each, which solvers apply (and why not), the chain's
 reach, and the suspicious things in the model (ranges that look like the wrong angle
-unit, joints without a range, a free joint on the path).
+unit, joints without a range, a free joint on the path, a home pose outside the ranges).
 
 :func:`inspect_model` builds an :class:`Inspection`; ``humanoid-ik inspect`` prints its
 :meth:`~Inspection.text` or :meth:`~Inspection.to_dict` as JSON. :func:`range_hints`
-alone serves a failed solve's message.
+alone serves a failed solve's message, :func:`home_warning` the commands that start
+from home.
+
+**Which frames are end effectors.** The candidates are every named site, every named
+leaf body, and every hand link: a body named as a hand, gripper, tool, palm or flange
+(``HAND_WORDS`` of ``core/names.py``) whose children are all fingers, gripper parts or
+sensor frames (Talos's ``gripper_left_base_link``, G1's ``left_hand_palm_link``). A
+candidate is not an end effector when the words of its name make it a sensor, camera,
+finger or helper frame (``core/names.py``: ``frame_role``), a gripper's mechanism (a
+hand word with a part word: ``gripper_left_motor_double_link``), or when it lies inside
+an offered hand link; nor when no hinge chain leads to it. Those are listed
+apart, each with its reason (:attr:`Inspection.others`).
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import mujoco
+import numpy as np
 
-from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.chain import REACH_METHOD, Chain
+from humanoid_ik.core.limbs import profile_for
 from humanoid_ik.core.models import (
+    HOME_KEY,
     bundled_model_path,
     display_model,
+    home_qpos,
     load_model,
     model_spec,
     needs_stage,
 )
-from humanoid_ik.core.robot import joint_name
-from humanoid_ik.errors import HumanoidIKError
+from humanoid_ik.core.names import frame_role
+from humanoid_ik.core.robot import joint_name, names
+from humanoid_ik.errors import HumanoidIKError, NameNotFoundError
+from humanoid_ik.experiments.limb_report import LimbInfo, limb_infos, limb_lines
 from humanoid_ik.solvers import SOLVERS
 
 __all__ = [
@@ -35,6 +53,10 @@ __all__ = [
     "Inspection",
     "JointInfo",
     "MJCF_DEGREE_LIMIT",
+    "OtherFrame",
+    "RADIAN_LIMIT",
+    "home_outside_ranges",
+    "home_warning",
     "inspect_model",
     "range_hints",
 ]
@@ -42,6 +64,18 @@ __all__ = [
 MJCF_DEGREE_LIMIT = 2 * math.pi
 """A hinge range whose written values all lie within +-2 pi in an MJCF that reads
 degrees (``+-6.3 deg``) was most likely written in radians."""
+RADIAN_LIMIT = 2 * math.pi + 0.01
+"""The largest range end [rad] that is plausible in radians: a hinge that turns up to a
+full turn either way (UR arms: +-2 pi, written rounded), so a range up to 4 pi wide.
+An end beyond it (90, 180, 360) was written in degrees."""
+
+_ROLE_NAMES = {
+    "sensor": "sensor frame",
+    "camera": "camera frame",
+    "finger": "finger",
+    "helper": "visual or helper frame",
+    "part": "gripper part",
+}
 
 _TYPES = {
     int(mujoco.mjtJoint.mjJNT_FREE): "free",
@@ -63,6 +97,8 @@ class JointInfo:
         range_deg: the same in [deg].
         qpos0: its value in the model's ``qpos0`` [rad] (hinges; ``None`` otherwise).
         qpos0_inside: ``qpos0`` lies inside the range (``True`` without a range).
+        world_axis: its unit axis ``(3,)`` in the world frame at the home pose (``None``
+            where not measured: :func:`range_hints`).
     """
 
     name: str
@@ -72,21 +108,22 @@ class JointInfo:
     range_deg: tuple[float, float] | None
     qpos0: float | None
     qpos0_inside: bool
+    world_axis: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
 class EffectorInfo:
-    """A site or body that can be an end effector.
+    """A site or body that is an end effector.
 
     Attributes:
         kind: ``site`` or ``body`` (``--site`` or ``--body``).
         name: its name.
-        joints: the hinges the default rule picks, root first.
+        joints: the hinges the default rule picks (or those given), root first.
         solvers: each solver's name -> ``None`` when it applies to position targets,
             else the reason it does not.
-        reach: an upper bound of the chain's reach [m] (from its first joint).
+        reach: the chain's sampled reach [m] from its first joint
+            (:meth:`~humanoid_ik.core.chain.Chain.reach`, :data:`REACH_METHOD`).
         base: the chain's first joint anchor ``(3,)`` [m] at the home pose.
-        error: why no chain can be built (then the other fields are empty).
     """
 
     kind: str
@@ -95,7 +132,23 @@ class EffectorInfo:
     solvers: dict[str, str | None] = field(default_factory=dict)
     reach: float | None = None
     base: tuple[float, float, float] | None = None
-    error: str | None = None
+
+
+@dataclass(frozen=True)
+class OtherFrame:
+    """A site or leaf body that is not an end effector, and why.
+
+    Attributes:
+        kind: ``site`` or ``body``.
+        name: its name.
+        reason: ``sensor frame``, ``camera frame``, ``finger``, ``visual or helper
+            frame``, ``gripper part``, ``part of the hand 'NAME'``, ``not moved by every
+            joint given``, or why no chain can be built (``no chain: ...``).
+    """
+
+    kind: str
+    name: str
+    reason: str
 
 
 @dataclass(frozen=True)
@@ -106,9 +159,12 @@ class Inspection:
         model: the model as reports name it.
         counts: bodies, joints, sites and cameras of the model.
         staged: a render adds a default stage (no light, floor or cameras).
-        effectors: the candidate end effectors: every named site, then every named
-            leaf body (any body can be named with ``--body``).
+        effectors: the end effectors (see the module: sites, leaf bodies and hand
+            links with a hinge chain); any body can still be named with ``--body``.
+        others: the sites and leaf bodies that are not end effectors, with the reason.
         warnings: the suspicious things, one line each.
+        limbs: the limbs found (``core/limbs.py``), with the solvers that apply exactly.
+        limb_notes: what the limb search decided, one line each.
     """
 
     model: str
@@ -116,6 +172,9 @@ class Inspection:
     staged: bool
     effectors: tuple[EffectorInfo, ...]
     warnings: tuple[str, ...]
+    others: tuple[OtherFrame, ...] = ()
+    limbs: tuple[LimbInfo, ...] = ()
+    limb_notes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready document."""
@@ -123,21 +182,23 @@ class Inspection:
 
     def text(self) -> str:
         """The report as text: the model, each end effector with its joint table and
-        solvers, then the warnings."""
+        solvers, the frames that are not end effectors, then the warnings."""
         c = self.counts
         stage = "a render adds the default stage" if self.staged else "has its own stage"
         lines = [
             f"model {self.model}: {c['bodies']} bodies, {c['joints']} joints, "
             f"{c['sites']} sites, {c['cameras']} cameras; {stage}",
+            f"{len(self.effectors)} end effector(s) (--site NAME or --body NAME; any body "
+            "works with --body):",
         ]
-        ok = [e for e in self.effectors if e.error is None]
-        lines.append(
-            f"{len(ok)} end effector(s) (--site NAME or --body NAME; any body works with --body):"
-        )
         for e in self.effectors:
             lines.append("")
             lines.extend(_effector_lines(e))
         lines.append("")
+        if self.others:
+            lines.append(f"not end effectors ({len(self.others)}):")
+            lines.extend(_other_lines(self.others))
+        lines.extend(limb_lines(self.limbs, self.limb_notes))
         if self.warnings:
             lines.append(f"warnings ({len(self.warnings)}):")
             lines.extend(f"  {w}" for w in self.warnings)
@@ -147,19 +208,18 @@ class Inspection:
 
 
 def _effector_lines(e: EffectorInfo) -> list[str]:
-    head = f"{e.kind} {e.name}"
-    if e.error is not None:
-        return [f"{head}: no chain: {e.error}"]
     assert e.reach is not None and e.base is not None
     base = ", ".join(f"{v:.3f}" for v in e.base)
-    out = [f"{head}: {len(e.joints)} joint(s), reach {e.reach:.3f} m from [{base}]"]
+    head = f"{e.kind} {e.name}: {len(e.joints)} joint(s), reach {e.reach:.3f} m"
+    out = [f"{head} ({REACH_METHOD}) from [{base}]"]
     width = max(len(j.name) for j in e.joints)
     out.append(
-        f"  {'joint':<{width}}  type   {'axis':<17}  {'range [rad]':<16}  {'range [deg]':<16}"
-        "  qpos0"
+        f"  {'joint':<{width}}  type   {'axis (world, home)':<18}  {'range [rad]':<16}  "
+        f"{'range [deg]':<16}  qpos0"
     )
     for j in e.joints:
-        axis = " ".join(f"{v + 0.0:+.2f}" for v in j.axis)
+        shown = j.axis if j.world_axis is None else j.world_axis
+        axis = " ".join(f"{v + 0.0:+.2f}" for v in shown)
         if j.range_rad is None or j.range_deg is None:
             rad, deg = "unlimited", ""
         else:
@@ -168,7 +228,7 @@ def _effector_lines(e: EffectorInfo) -> list[str]:
         q0 = "" if j.qpos0 is None else f"{j.qpos0 + 0.0:+.3f}"
         inside = "" if j.qpos0_inside else " OUTSIDE the range"
         out.append(
-            f"  {j.name:<{width}}  {j.type:<5}  {axis:<17}  {rad:<16}  {deg:<16}  {q0}{inside}"
+            f"  {j.name:<{width}}  {j.type:<5}  {axis:<18}  {rad:<16}  {deg:<16}  {q0}{inside}"
         )
     good = [n for n, why in e.solvers.items() if why is None]
     out.append(f"  solvers: {', '.join(good) or '(none)'}")
@@ -178,7 +238,20 @@ def _effector_lines(e: EffectorInfo) -> list[str]:
     return out
 
 
-def _joint_info(model: mujoco.MjModel, j: int) -> JointInfo:
+def _other_lines(others: tuple[OtherFrame, ...]) -> list[str]:
+    """One line per reason with the frames it applies to; a chain's error, which names
+    its frame, one line each."""
+    grouped: dict[str, list[str]] = {}
+    out = []
+    for o in others:
+        if o.reason.startswith("no chain: "):
+            out.append(f"  {o.kind} {o.name}: {o.reason}")
+        else:
+            grouped.setdefault(o.reason, []).append(o.name)
+    return [f"  {reason}: {', '.join(frames)}" for reason, frames in grouped.items()] + out
+
+
+def _joint_info(model: mujoco.MjModel, j: int, world_axis: np.ndarray | None = None) -> JointInfo:
     jtype = _TYPES[int(model.jnt_type[j])]
     limited = bool(model.jnt_limited[j]) and jtype in ("hinge", "slide")
     lo, hi = (float(v) for v in model.jnt_range[j])
@@ -186,6 +259,9 @@ def _joint_info(model: mujoco.MjModel, j: int) -> JointInfo:
     q0 = float(model.qpos0[model.jnt_qposadr[j]]) if jtype in ("hinge", "slide") else None
     inside = rng is None or q0 is None or lo - 1e-9 <= q0 <= hi + 1e-9
     ax = model.jnt_axis[j]
+    world = None
+    if world_axis is not None:
+        world = (float(world_axis[0]), float(world_axis[1]), float(world_axis[2]))
     return JointInfo(
         name=joint_name(model, j),
         type=jtype,
@@ -194,6 +270,7 @@ def _joint_info(model: mujoco.MjModel, j: int) -> JointInfo:
         range_deg=None if rng is None else (math.degrees(lo), math.degrees(hi)),
         qpos0=q0,
         qpos0_inside=inside,
+        world_axis=world,
     )
 
 
@@ -211,36 +288,90 @@ def _solvers(chain: Chain) -> dict[str, str | None]:
     return out
 
 
-def _candidates(model: mujoco.MjModel) -> list[tuple[str, str]]:
-    """Every named site, then every named body without child bodies (not the world)."""
-    out = []
+# ----------------------------------------------------------------------------- frames
+def _body_name(model: mujoco.MjModel, b: int) -> str:
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or ""
+
+
+def _candidates(model: mujoco.MjModel) -> tuple[list[tuple[str, str]], list[OtherFrame]]:
+    """The end-effector candidates (``(kind, name)``: named sites, then bodies in model
+    order) and the sites and leaf bodies the rules of the module leave out."""
+    out: list[tuple[str, str]] = []
+    others: list[OtherFrame] = []
     for i in range(model.nsite):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i)
         if name:
-            out.append(("site", name))
-    parents = set(int(p) for p in model.body_parentid[1:])
+            role = frame_role(name)
+            if role in _ROLE_NAMES:
+                others.append(OtherFrame("site", name, _ROLE_NAMES[role]))
+            else:
+                out.append(("site", name))
+    children: dict[int, list[int]] = {}
     for b in range(1, model.nbody):
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
-        if name and b not in parents:
+        children.setdefault(int(model.body_parentid[b]), []).append(b)
+    roles = {b: frame_role(_body_name(model, b)) for b in range(1, model.nbody)}
+    attached = ("finger", "part", "sensor", "camera", "helper")
+    hands = {
+        b
+        for b, kids in children.items()
+        if b > 0 and roles[b] == "hand" and all(roles[k] in attached for k in kids)
+    }
+    inside: dict[int, int] = {}  # body -> the offered hand link it belongs to
+    for h in hands:
+        todo = list(children.get(h, []))
+        while todo:
+            b = todo.pop()
+            inside[b] = h
+            todo += children.get(b, [])
+    for b in range(1, model.nbody):
+        name = _body_name(model, b)
+        if not name or (b in children and b not in hands):
+            continue
+        role = roles[b]
+        if role in _ROLE_NAMES:
+            others.append(OtherFrame("body", name, _ROLE_NAMES[role]))
+        elif b in inside:
+            hand = _body_name(model, inside[b])
+            others.append(OtherFrame("body", name, f"part of the hand '{hand}'"))
+        else:
             out.append(("body", name))
-    return out
+    return out, others
 
 
-def _chain(model: mujoco.MjModel, kind: str, name: str) -> Chain:
+def _chain(model: mujoco.MjModel, kind: str, name: str, joints: Sequence[str] | None) -> Chain:
     if kind == "site":
-        return Chain(model, name)
-    return Chain(model, body=name)
+        return Chain(model, name, joints)
+    return Chain(model, joints=joints, body=name)
 
 
-def _effector(model: mujoco.MjModel, kind: str, name: str) -> tuple[EffectorInfo, list[str]]:
-    """The end effector's report, and a warning per free joint on its path (where the
-    chain stops)."""
-    try:
-        chain = _chain(model, kind, name)
-    except HumanoidIKError as exc:
-        return EffectorInfo(kind, name, error=str(exc)), []
+def _moved_by(model: mujoco.MjModel, kind: str, name: str, joints: Sequence[str]) -> bool:
+    """Every joint of ``joints`` lies on the path from the frame to the world."""
+    obj = mujoco.mjtObj.mjOBJ_SITE if kind == "site" else mujoco.mjtObj.mjOBJ_BODY
+    i = mujoco.mj_name2id(model, obj, name)
+    b = int(model.site_bodyid[i]) if kind == "site" else i
+    on_path: set[str] = set()
+    while b > 0:
+        adr, num = int(model.body_jntadr[b]), int(model.body_jntnum[b])
+        on_path |= {joint_name(model, j) for j in range(adr, adr + num)}
+        b = int(model.body_parentid[b])
+    return set(joints) <= on_path
+
+
+def _effector(
+    model: mujoco.MjModel, kind: str, name: str, joints: Sequence[str] | None = None
+) -> tuple[EffectorInfo, list[str]]:
+    """The end effector's report (its chain the default rule's, or ``joints``), and a
+    warning per free joint on its path (where the chain stops).
+
+    Raises:
+        HumanoidIKError: no chain can be built to it (the reason).
+    """
+    chain = _chain(model, kind, name, joints)
     base, reach = chain.reach()
-    joints = tuple(_joint_info(model, int(j)) for j in chain.joint_ids)
+    _, axes = chain.joint_axes_at(chain.q_home)
+    infos = tuple(
+        _joint_info(model, int(j), axes[i]) for i, j in enumerate(chain.joint_ids.tolist())
+    )
     b = (float(base[0]), float(base[1]), float(base[2]))
     warnings = []
     for j in chain.path_joint_ids.tolist():
@@ -250,21 +381,25 @@ def _effector(model: mujoco.MjModel, kind: str, name: str) -> tuple[EffectorInfo
                 f"free joint '{jname}' on the path of {kind} '{name}': the chain stops "
                 "there; solvers keep the floating base where it is"
             )
-    return EffectorInfo(kind, name, joints, _solvers(chain), reach, b), warnings
+    return EffectorInfo(kind, name, infos, _solvers(chain), reach, b), warnings
 
 
+# ----------------------------------------------------------------------------- warnings
 def range_hints(model: mujoco.MjModel, path: str | os.PathLike | None = None) -> list[str]:
-    """Suspicious joint ranges and values of the model's hinges, one line each.
+    """Suspicious joint ranges of the model's hinges, one line each.
 
-    - a range wider than 2 pi: probably degrees written where radians are read (URDF,
-      or MJCF with ``<compiler angle="radian"/>``);
+    - a range end beyond +-:data:`RADIAN_LIMIT` (a full turn either way, ``+-2 pi``
+      written rounded): probably degrees written where radians are read (URDF, or MJCF
+      with ``<compiler angle="radian"/>``). Ranges of up to two turns, as UR arms'
+      ``+-2 pi``, are plausible radians; degrees show as ends like 90, 180 or 360;
     - with ``path`` an MJCF that reads degrees (no ``angle="radian"``): ranges whose
       written values all lie within +-:data:`MJCF_DEGREE_LIMIT`, probably radians;
-    - a hinge without a range;
-    - ``qpos0`` outside the range.
+    - a hinge without a range.
+
+    A home pose outside the ranges is :func:`home_warning`'s.
     """
     reads_degrees = False
-    if path is not None and Path(path).suffix.lower() != ".urdf":
+    if path is not None and Path(path).suffix.lower() not in (".urdf", ".xacro"):
         try:
             reads_degrees = bool(model_spec(path).compiler.degree)
         except HumanoidIKError:
@@ -278,11 +413,11 @@ def range_hints(model: mujoco.MjModel, path: str | os.PathLike | None = None) ->
             out.append(f"joint '{info.name}' has no range: solvers treat it as unlimited")
             continue
         lo, hi = info.range_rad
-        if hi - lo > 2 * math.pi + 1e-9:
+        if max(abs(lo), abs(hi)) > RADIAN_LIMIT:
             out.append(
-                f"joint '{info.name}' range {lo:+.3g} .. {hi:+.3g} rad is wider than 2 pi: "
-                "probably degrees written where radians are read (URDF limits and MJCF with "
-                'angle="radian" are radians)'
+                f"joint '{info.name}' range {lo:+.3g} .. {hi:+.3g} rad goes beyond a full "
+                "turn (+-2 pi): probably degrees written where radians are read (URDF "
+                'limits and MJCF with angle="radian" are radians)'
             )
         elif (
             reads_degrees
@@ -295,29 +430,98 @@ def range_hints(model: mujoco.MjModel, path: str | os.PathLike | None = None) ->
                 "the MJCF reads angles in degrees; if radians were meant, add "
                 '<compiler angle="radian"/>'
             )
-        if not info.qpos0_inside:
-            out.append(f"joint '{info.name}' qpos0 {info.qpos0:+.3f} rad is outside its range")
     return out
 
 
-def inspect_model(model: str | os.PathLike | None = None) -> Inspection:
+def home_outside_ranges(model: mujoco.MjModel) -> list[tuple[str, float, float]]:
+    """The limited hinges and slides whose home value (the ``home`` keyframe, else
+    ``qpos0``) lies outside their range: ``(joint name, home value, the value moved
+    inside)`` [rad or m], in model order.
+
+    Solves, runs and renders start from the home pose moved inside the ranges
+    (:meth:`Robot.reset <humanoid_ik.core.robot.Robot.reset>`, :attr:`Chain.q_home
+    <humanoid_ik.core.chain.Chain.q_home>`): a start outside them is one no solver
+    may return, so the nearest range end is taken.
+    """
+    home = home_qpos(model)
+    out = []
+    for j in range(model.njnt):
+        if int(model.jnt_type[j]) not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            continue
+        if not model.jnt_limited[j]:
+            continue
+        lo, hi = (float(v) for v in model.jnt_range[j])
+        v = float(home[model.jnt_qposadr[j]])
+        if not lo <= v <= hi:
+            out.append((joint_name(model, j), v, min(max(v, lo), hi)))
+    return out
+
+
+def home_warning(model: mujoco.MjModel) -> str | None:
+    """One line naming every joint whose home value lies outside its range, with the
+    value and the range end every solve starts from instead (:func:`home_outside_ranges`),
+    or ``None`` when the home pose is inside the ranges."""
+    moved = home_outside_ranges(model)
+    if not moved:
+        return None
+    keyed = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY) >= 0
+    where = f"keyframe '{HOME_KEY}'" if keyed else "qpos0"
+    each = ", ".join(f"'{n}' {v:+.4f} -> {c:+.4f}" for n, v, c in moved)
+    return (
+        f"the home pose ({where}) has {len(moved)} joint(s) outside their ranges; solves "
+        f"start from it moved inside: {each} (rad, or m for slides)"
+    )
+
+
+def inspect_model(
+    model: str | os.PathLike | None = None,
+    joints: Sequence[str] | None = None,
+    *,
+    packages: Mapping[str, Path] | None = None,
+    limbs: str | os.PathLike | None = None,
+) -> Inspection:
     """Inspect an MJCF or URDF file (``None``: the bundled humanoid).
 
+    Args:
+        model: the model file, or ``None``.
+        joints: the chains' joints instead of the default rule (``--joints``): only the
+            end effectors every one of them moves are reported.
+        packages: ROS package folders ``{NAME: DIR}`` for a URDF's ``package://``
+            meshes (:func:`~humanoid_ik.core.models.load_model`).
+        limbs: a limb profile overriding what is found (default: ``<model>.limbs.toml``
+            beside the model, if there is one; ``docs/limbs.md``).
+
     Raises:
-        ModelError: the file does not exist or does not compile.
+        ModelError: the file does not exist or does not compile, or a bad profile.
+        NameNotFoundError: a joint of ``joints`` is not in the model.
     """
-    m = load_model(model)
+    m = load_model(model, packages=packages)
+    for j in joints or ():
+        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j) < 0:
+            raise NameNotFoundError("joint", j, names(m, mujoco.mjtObj.mjOBJ_JOINT, m.njnt))
     effectors: list[EffectorInfo] = []
     warnings = range_hints(m, bundled_model_path() if model is None else model)
-    for kind, name in _candidates(m):
-        info, on_path = _effector(m, kind, name)
+    home = home_warning(m)
+    if home is not None:
+        warnings.append(home)
+    candidates, others = _candidates(m)
+    for kind, name in candidates:
+        if joints is not None and not _moved_by(m, kind, name, joints):
+            others.append(OtherFrame(kind, name, "not moved by every joint given"))
+            continue
+        try:
+            info, on_path = _effector(m, kind, name, joints)
+        except HumanoidIKError as exc:
+            others.append(OtherFrame(kind, name, f"no chain: {exc}"))
+            continue
         effectors.append(info)
         warnings += [w for w in on_path if w not in warnings]
-    if not any(e.error is None for e in effectors):
+    if not effectors:
         warnings.append(
-            "no site or leaf body has a hinge on its path: name joints with --joints, or a "
-            "body with --body"
+            "no site or leaf body is an end effector with a hinge on its path: name the "
+            "end effector with --body (any body) and the joints with --joints"
         )
+    profile = profile_for(m, None if model is None else model, limbs)
     counts = {
         "bodies": int(m.nbody),
         "joints": int(m.njnt),
@@ -330,4 +534,7 @@ def inspect_model(model: str | os.PathLike | None = None) -> Inspection:
         staged=needs_stage(m),
         effectors=tuple(effectors),
         warnings=tuple(warnings),
+        others=tuple(others),
+        limbs=limb_infos(m, profile),
+        limb_notes=profile.notes,
     )

@@ -1,20 +1,35 @@
 """A trajectory as a BVH file (Biovision hierarchy) for animation tools.
 
-The skeleton is the model's body tree: the root is the body that holds every jointed
-body (the humanoid's ``torso_link``); every body with hinge joints is a BVH ``JOINT``
-at its body origin, with one rotation channel per hinge, in the model's joint order;
-every site away from its body's origin (the palms, the gaze point, the torso site)
-is a ``JOINT`` without channels, so tools show the hands and the head. Offsets are
-the model's lengths.
+The skeleton is the model's joint tree: the root is the body that holds every jointed
+body (the humanoid's ``torso_link``, a robot's base link, or its floating base); every
+body with hinge (or ball) joints is a BVH ``JOINT`` placed at its joints' anchor;
+bodies without joints (a sensor, camera or tool link on a fixed joint) are folded into
+the jointed body above them; every site away from its ``JOINT`` (the palms, the gaze
+point, the torso site) is a ``JOINT`` without channels, so tools show the hands and the
+head. Offsets are the model's lengths. A slide joint that stays at its ``qpos0`` value in
+every frame of the trajectory (a gripper's fingers the run never moved) is held fixed,
+its body folded the same way.
+
+Frames: every ``JOINT``'s frame is aligned with the world at the model's reference pose
+``qpos0`` (``qpos = 0`` for every hinge of a URDF), whatever rest rotation its body has,
+so its offsets are world differences at that pose and at all channels zero the skeleton
+stands in it. A hinge then turns its ``JOINT`` about the hinge's world axis at that pose
+(:func:`_channels`): along a world axis (most robots: the bundled humanoid, G1, Talos)
+that is one rotation channel, whose value is the joint's angle ``qpos - qpos0``; a body
+with a hinge about a slanted axis or a ball joint gets three channels (``Zrotation
+Xrotation Yrotation``) holding its rotation relative to its parent, decomposed each
+frame. A floating base (a free joint on the root) drives the root's six channels.
+BVH cannot hold a slide joint that moves, hinges of one body about different points or
+a free joint below the root: such a model is refused with a pointer to
+``export-keyframes``.
 
 Conventions (``docs/formats.md``): Y up. BVH ``(X, Y, Z)`` is MuJoCo's ``(y, z, x)``:
 the humanoid faces +Z (MuJoCo +x), its left is +X (MuJoCo +y) and up is +Y (MuJoCo +z),
-a proper rotation of the axes, so a MuJoCo hinge about ``+x``, ``+y``, ``+z`` is a
+a proper rotation of the axes, so a hinge about world ``+x``, ``+y``, ``+z`` is a
 ``Zrotation``, ``Xrotation``, ``Yrotation`` and a hinge about ``-a`` writes the
 negated angle. Angles in degrees; lengths in metres (or centimetres). Channels are
 intrinsic: a joint's rotation is the product of its channels' rotations in the order
-listed, as MuJoCo composes the joints of one body. At all channels zero the skeleton
-is in the model's ``qpos = 0`` pose.
+listed, as MuJoCo composes the joints of one body.
 """
 
 from __future__ import annotations
@@ -26,6 +41,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from humanoid_ik.core.rotations import decompose_three_axes
 from humanoid_ik.errors import TrajectoryFileError
 from humanoid_ik.run.trajectory import Trajectory
 
@@ -36,6 +52,13 @@ BVH_UNITS = {"m": 1.0, "cm": 100.0}
 _LETTER = ("Z", "X", "Y")
 """The BVH rotation channel of a MuJoCo axis x, y, z."""
 _ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+_EULER = ("Zrotation", "Xrotation", "Yrotation")
+"""The channels of a rotation decomposed each frame (the root's, a slanted hinge's)."""
+_BVH_AXES = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+"""MuJoCo vector -> BVH vector: ``(x, y, z) -> (y, z, x)``."""
+_ALIGNED = 1e-9
+"""How far from 1 a world axis component may be for a hinge to count as along it."""
+_KEYFRAMES = "; export-keyframes writes any model's motion (MuJoCo <key> elements)"
 
 
 def _to_bvh(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -45,12 +68,23 @@ def _to_bvh(v: NDArray[np.float64]) -> NDArray[np.float64]:
 
 @dataclass
 class _Node:
-    """A BVH joint: its name, offset from the parent [m, MuJoCo axes], channels as
-    ``(qpos address, axis letter, sign)`` and children."""
+    """A BVH joint.
+
+    Attributes:
+        name: its name.
+        offset: from the parent joint [m, MuJoCo world axes at ``qpos0``].
+        body: the MuJoCo body it moves with (``-1`` for a site).
+        channels: one per hinge along a world axis: ``(qpos address, axis letter,
+            sign)``; empty with ``euler`` set, or for a site.
+        euler: the rotation is decomposed each frame into :data:`_EULER`.
+        children: its child joints.
+    """
 
     name: str
     offset: NDArray[np.float64]
+    body: int = -1
     channels: list[tuple[int, str, float]] = field(default_factory=list)
+    euler: bool = False
     children: list[_Node] = field(default_factory=list)
 
 
@@ -58,50 +92,77 @@ def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, i: int, fallback: str) -> 
     return mujoco.mj_id2name(model, kind, i) or f"{fallback}{i}"
 
 
-def _channels(model: mujoco.MjModel, body: int) -> list[tuple[int, str, float]]:
-    """The rotation channels of ``body``'s joints.
-
-    Raises:
-        TrajectoryFileError: a joint is not a hinge at the body origin along one of the
-            body's axes.
-    """
-    out = []
-    for j in range(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]):
-        name = _name(model, mujoco.mjtObj.mjOBJ_JOINT, j, "joint")
-        if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
-            raise TrajectoryFileError(
-                f"BVH export takes hinge joints only; joint '{name}' is not a hinge"
-            )
-        axis = np.asarray(model.jnt_axis[j], dtype=np.float64)
-        a = int(np.argmax(np.abs(axis)))
-        if abs(abs(axis[a]) - 1.0) > 1e-9 or np.linalg.norm(model.jnt_pos[j]) > 1e-12:
-            raise TrajectoryFileError(
-                f"BVH export takes hinges at the body origin along its x, y or z axis; "
-                f"joint '{name}' has axis {axis.tolist()} at {model.jnt_pos[j].tolist()}"
-            )
-        out.append((int(model.jnt_qposadr[j]), _LETTER[a], float(np.sign(axis[a]))))
+def _held(model: mujoco.MjModel, qpos: NDArray[np.float64]) -> set[int]:
+    """The slide joints that stay at their ``qpos0`` value in every frame of ``qpos``
+    ``(F, nq)``: held fixed in the skeleton."""
+    out = set()
+    for j in range(model.njnt):
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
+            adr = int(model.jnt_qposadr[j])
+            if np.all(qpos[:, adr] == model.qpos0[adr]):
+                out.add(j)
     return out
 
 
-def _check_frame(model: mujoco.MjModel, body: int) -> None:
-    if not np.allclose(model.body_quat[body], (1, 0, 0, 0), atol=1e-12):
-        name = _name(model, mujoco.mjtObj.mjOBJ_BODY, body, "body")
-        raise TrajectoryFileError(
-            f"BVH export needs bodies without a rest rotation; body '{name}' has quat "
-            f"{model.body_quat[body].tolist()}"
-        )
+def _joints(model: mujoco.MjModel, body: int, held: set[int]) -> list[int]:
+    """``body``'s joints that the skeleton moves (all but the ``held`` ones)."""
+    adr, num = int(model.body_jntadr[body]), int(model.body_jntnum[body])
+    return [j for j in range(adr, adr + num) if j not in held]
 
 
-def _skeleton(model: mujoco.MjModel) -> _Node:
-    """The BVH skeleton of ``model`` (bodies without joints are merged into their parent).
+def _channels(
+    model: mujoco.MjModel, rest: mujoco.MjData, joints: list[int]
+) -> tuple[list[tuple[int, str, float]], bool, NDArray[np.float64]]:
+    """The rotation channels of one body's ``joints``, whether they are decomposed each
+    frame instead, and where the joints turn (their anchor at ``qpos0``, world [m]).
 
     Raises:
-        TrajectoryFileError: the model has no hinge joints, or one that BVH cannot hold.
+        TrajectoryFileError: a joint BVH cannot hold (a slide that moves, a free joint
+            below the root), or hinges about different points.
     """
-    jointed = [b for b in range(1, model.nbody) if model.body_jntnum[b] > 0]
+    out = []
+    euler = False
+    anchor = np.array(rest.xanchor[joints[0]], dtype=np.float64)
+    body = int(model.jnt_bodyid[joints[0]])
+    bname = _name(model, mujoco.mjtObj.mjOBJ_BODY, body, "body")
+    for j in joints:
+        name = _name(model, mujoco.mjtObj.mjOBJ_JOINT, j, "joint")
+        jtype = int(model.jnt_type[j])
+        if jtype not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL):
+            what = (
+                "a slide joint that moves in this trajectory"
+                if jtype == mujoco.mjtJoint.mjJNT_SLIDE
+                else "a free joint below the skeleton's root"
+            )
+            raise TrajectoryFileError(
+                f"BVH holds rotations only; joint '{name}' is {what}{_KEYFRAMES}"
+            )
+        if np.linalg.norm(rest.xanchor[j] - anchor) > 1e-9:
+            raise TrajectoryFileError(
+                f"BVH turns a body about one point; the joints of body '{bname}' turn about "
+                f"different points{_KEYFRAMES}"
+            )
+        if jtype == mujoco.mjtJoint.mjJNT_BALL:
+            euler = True
+            continue
+        axis = np.asarray(rest.xaxis[j], dtype=np.float64)
+        a = int(np.argmax(np.abs(axis)))
+        if abs(abs(axis[a]) - 1.0) > _ALIGNED:
+            euler = True
+        out.append((int(model.jnt_qposadr[j]), _LETTER[a], float(np.sign(axis[a]))))
+    return ([] if euler else out), euler, anchor
+
+
+def _root_body(model: mujoco.MjModel, held: set[int]) -> int:
+    """The deepest body above every jointed body without joints of its own, or with only
+    a free joint (a floating base).
+
+    Raises:
+        TrajectoryFileError: the model has no joint.
+    """
+    jointed = [b for b in range(1, model.nbody) if _joints(model, b, held)]
     if not jointed:
         raise TrajectoryFileError("BVH export needs a model with hinge joints; it has none")
-    # the root: the deepest body above every jointed body that has no joint itself
     paths = []
     for b in jointed:
         path = [b]
@@ -109,34 +170,65 @@ def _skeleton(model: mujoco.MjModel) -> _Node:
             path.append(int(model.body_parentid[path[-1]]))
         paths.append(path[::-1])
     common = [b for k, b in enumerate(paths[0]) if all(len(p) > k and p[k] == b for p in paths)]
-    root_body = next(b for b in reversed(common) if model.body_jntnum[b] == 0)
-    _check_frame(model, root_body)
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    root = _Node(_name(model, mujoco.mjtObj.mjOBJ_BODY, root_body, "body"), data.xpos[root_body])
-    _grow(model, root_body, root, np.zeros(3))
+    for b in reversed(common):
+        if not _joints(model, b, held) or _free_joint(model, b) is not None:
+            return b
+    return 0
+
+
+def _free_joint(model: mujoco.MjModel, body: int) -> int | None:
+    """``body``'s joint when it is exactly one free joint, else ``None``."""
+    if model.body_jntnum[body] != 1:
+        return None
+    j = int(model.body_jntadr[body])
+    return j if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE else None
+
+
+def _skeleton(model: mujoco.MjModel, rest: mujoco.MjData, held: set[int]) -> _Node:
+    """The BVH skeleton of ``model`` (``rest``: its kinematics at ``qpos0``; ``held``: the
+    joints held fixed).
+
+    Raises:
+        TrajectoryFileError: the model has no joint, or one that BVH cannot hold.
+    """
+    root_body = _root_body(model, held)
+    root = _Node(
+        _name(model, mujoco.mjtObj.mjOBJ_BODY, root_body, "body"),
+        np.array(rest.xpos[root_body], dtype=np.float64),
+        body=root_body,
+    )
+    _grow(model, rest, held, root_body, root, root.offset)
     return root
 
 
-def _grow(model: mujoco.MjModel, body: int, node: _Node, shift: NDArray[np.float64]) -> None:
-    """Add ``body``'s sites and child bodies under ``node`` (``shift``: where ``body``'s
-    origin is in ``node``'s frame, for bodies merged into it)."""
+def _grow(
+    model: mujoco.MjModel,
+    rest: mujoco.MjData,
+    held: set[int],
+    body: int,
+    node: _Node,
+    at: NDArray[np.float64],
+) -> None:
+    """Add ``body``'s sites and child bodies under ``node``, which stands at ``at``
+    (world, ``qpos0``) and which ``body`` is folded into unless it is ``node``'s."""
     for s in range(model.nsite):
-        if model.site_bodyid[s] == body and np.linalg.norm(model.site_pos[s]) > 1e-12:
-            name = _name(model, mujoco.mjtObj.mjOBJ_SITE, s, "site")
-            node.children.append(_Node(name, shift + model.site_pos[s]))
+        if model.site_bodyid[s] == body:
+            offset = rest.site_xpos[s] - at
+            if np.linalg.norm(offset) > 1e-12:
+                name = _name(model, mujoco.mjtObj.mjOBJ_SITE, s, "site")
+                node.children.append(_Node(name, offset))
     for child in range(1, model.nbody):
         if model.body_parentid[child] != body or child == body:
             continue
-        _check_frame(model, child)
-        offset = shift + model.body_pos[child]
-        if model.body_jntnum[child] == 0:
-            _grow(model, child, node, offset)
+        joints = _joints(model, child, held)
+        if not joints:
+            _grow(model, rest, held, child, node, at)
             continue
-        sub = _Node(_name(model, mujoco.mjtObj.mjOBJ_BODY, child, "body"), offset)
-        sub.channels = _channels(model, child)
+        channels, euler, anchor = _channels(model, rest, joints)
+        name = _name(model, mujoco.mjtObj.mjOBJ_BODY, child, "body")
+        sub = _Node(name, anchor - at, child, channels, euler)
         node.children.append(sub)
-        _grow(model, child, sub, np.zeros(3))
+        _grow(model, rest, held, child, sub, anchor)
 
 
 def _hierarchy(node: _Node, scale: float, depth: int, lines: list[str]) -> None:
@@ -144,7 +236,12 @@ def _hierarchy(node: _Node, scale: float, depth: int, lines: list[str]) -> None:
     kind = "ROOT" if depth == 0 else "JOINT"
     off = " ".join(f"{v:.10f}" for v in _to_bvh(node.offset) * scale)
     lines += [f"{pad}{kind} {node.name}", f"{pad}{{", f"{pad}  OFFSET {off}"]
-    names = list(_ROOT_CHANNELS) if depth == 0 else [f"{c[1]}rotation" for c in node.channels]
+    if depth == 0:
+        names = list(_ROOT_CHANNELS)
+    elif node.euler:
+        names = list(_EULER)
+    else:
+        names = [f"{c[1]}rotation" for c in node.channels]
     lines.append(f"{pad}  CHANNELS {len(names)}" + "".join(f" {n}" for n in names))
     for child in node.children:
         _hierarchy(child, scale, depth + 1, lines)
@@ -153,15 +250,80 @@ def _hierarchy(node: _Node, scale: float, depth: int, lines: list[str]) -> None:
     lines.append(f"{pad}}}")
 
 
-def _frame(node: _Node, qpos: NDArray[np.float64], scale: float, root: bool) -> list[float]:
-    vals: list[float] = []
-    if root:
-        vals += list(_to_bvh(node.offset) * scale) + [0.0, 0.0, 0.0]
-    else:
-        vals += [math.degrees(sign * float(qpos[adr])) for adr, _, sign in node.channels]
-    for child in node.children:
-        vals += _frame(child, qpos, scale, False)
-    return vals
+class _Frames:
+    """The channel values of each frame, from MuJoCo's kinematics where a rotation is
+    decomposed (the root, slanted hinges, ball joints)."""
+
+    def __init__(self, model: mujoco.MjModel, root: _Node, rest: mujoco.MjData, scale: float):
+        self.model, self.root, self.scale = model, root, scale
+        self.qpos0 = np.array(model.qpos0, dtype=np.float64)
+        self.rest_rot = {b: rest.xmat[b].reshape(3, 3).copy() for b in range(model.nbody)}
+        self.data = mujoco.MjData(model)
+        self.free = _free_joint(model, root.body)
+        self.previous: dict[int, NDArray[np.float64]] = {}
+        self.needs_fk = self.free is not None or _any_euler(root)
+
+    def row(self, qpos: NDArray[np.float64]) -> list[float]:
+        """The values of one frame, in the hierarchy's channel order."""
+        if self.needs_fk:
+            self.data.qpos[:] = qpos
+            mujoco.mj_kinematics(self.model, self.data)
+        vals: list[float] = []
+        if self.free is None:
+            vals += list(_to_bvh(self.root.offset) * self.scale) + [0.0, 0.0, 0.0]
+        else:
+            pos = np.array(self.data.xpos[self.root.body], dtype=np.float64)
+            vals += list(_to_bvh(pos) * self.scale) + self._euler(self.root.body, np.eye(3))
+        world = self._world(self.root.body)
+        for child in self.root.children:
+            self._node(child, qpos, world, vals)
+        return vals
+
+    def _world(self, body: int) -> NDArray[np.float64]:
+        """The body's BVH rotation in the world (identity at ``qpos0``)."""
+        if not self.needs_fk:
+            return np.eye(3)
+        return self.data.xmat[body].reshape(3, 3) @ self.rest_rot[body].T
+
+    def _node(
+        self,
+        node: _Node,
+        qpos: NDArray[np.float64],
+        parent: NDArray[np.float64],
+        vals: list[float],
+    ) -> None:
+        if node.body < 0:  # a site: no channels
+            return
+        if node.euler:
+            vals += self._euler(node.body, parent)
+        else:
+            for adr, _, sign in node.channels:
+                vals.append(math.degrees(sign * float(qpos[adr] - self.qpos0[adr])))
+        world = self._world(node.body)
+        for child in node.children:
+            self._node(child, qpos, world, vals)
+
+    def _euler(self, body: int, parent: NDArray[np.float64]) -> list[float]:
+        """``body``'s rotation relative to ``parent`` (both world, MuJoCo axes) as
+        ``Zrotation Xrotation Yrotation`` [deg]: the decomposition nearest the last frame's,
+        unwrapped to it, so the curves are continuous."""
+        local = _BVH_AXES @ (parent.T @ self._world(body)) @ _BVH_AXES.T
+        eye = np.eye(3)
+        sols = decompose_three_axes(local, eye[2], eye[0], eye[1])
+        last = self.previous.get(body)
+        if not sols:  # numerically at the edge: the identity's neighbour
+            sols = [np.zeros(3) if last is None else last]
+        if last is None:
+            best = min(sols, key=lambda s: abs(float(s[1])))
+        else:
+            sols = [s + 2 * math.pi * np.round((last - s) / (2 * math.pi)) for s in sols]
+            best = min(sols, key=lambda s: float(np.abs(s - last).sum()))
+        self.previous[body] = best
+        return [math.degrees(float(v)) for v in best]
+
+
+def _any_euler(node: _Node) -> bool:
+    return node.euler or any(_any_euler(c) for c in node.children)
 
 
 def bvh_text(traj: Trajectory, model: mujoco.MjModel, units: str = "m") -> str:
@@ -173,16 +335,20 @@ def bvh_text(traj: Trajectory, model: mujoco.MjModel, units: str = "m") -> str:
         units: ``m`` or ``cm`` (:data:`BVH_UNITS`).
 
     Raises:
-        TrajectoryFileError: the model has joints BVH cannot hold (not hinges, hinges
-            off a body axis, bodies with a rest rotation).
+        TrajectoryFileError: the model has joints BVH cannot hold (a slide joint that
+            moves, hinges of one body about different points, a free joint below the
+            root; the message points at ``export-keyframes``), or no joint at all.
     """
     if units not in BVH_UNITS:
         raise TrajectoryFileError(f"units '{units}' unknown; units: {', '.join(BVH_UNITS)}")
     scale = BVH_UNITS[units]
-    root = _skeleton(model)
+    rest = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, rest)
+    root = _skeleton(model, rest, _held(model, traj.qpos))
     lines = ["HIERARCHY"]
     _hierarchy(root, scale, 0, lines)
     lines += ["MOTION", f"Frames: {traj.n_frames}", f"Frame Time: {1.0 / traj.fps:.10f}"]
+    frames = _Frames(model, root, rest, scale)
     for q in traj.qpos:
-        lines.append(" ".join(f"{v:.10f}" for v in _frame(root, q, scale, True)))
+        lines.append(" ".join(f"{v:.10f}" for v in frames.row(q)))
     return "\n".join(lines) + "\n"

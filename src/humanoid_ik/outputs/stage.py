@@ -4,17 +4,35 @@ A URDF or a bare MJCF arm has no light, no floor and no camera; a film of it get
 stage here. The stage is the rendering layer's alone: the solvers and the runner work
 on the model as the user gave it, and the renderer films a staged copy whose ``qpos``
 is the run's (the stage adds no joint, so ``qpos`` and every chain are the same).
+
+The cameras face the robot and frame what the film shows:
+
+- **Facing.** The robot's forward direction is :func:`facing` of the chains filmed:
+  the side toward which they reach (the mean of their sampled end-effector positions,
+  :meth:`~humanoid_ik.core.chain.Chain.reach_mean`), else the side their effectors are
+  on at home, else the side of the targets, else +x. The azimuths of
+  :data:`~humanoid_ik.core.models.STAGE_CAMERAS` are measured from it: ``front`` looks
+  at the robot's front, ``side`` at its right, ``three_quarter`` from front right.
+- **Framing.** Each camera keeps its direction and is placed as close as it can be with
+  every framed point inside the middle :data:`FILL` of the frame's width and height
+  (a closed-form fit of the pinhole frustum): the corners of every drawn geom at each
+  pose of a run (at the home pose without a run: the home pose is not filmed, frame 0
+  is already solved), and the given points (every frame's targets and effectors).
+  :func:`trajectory_stage` takes all of them from a run.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.models import (
     STAGE_CAMERAS,
     compile_spec,
@@ -25,15 +43,37 @@ from humanoid_ik.core.models import (
     needs_stage,
     reset_to_home,
 )
+from humanoid_ik.core.robot import Robot
+from humanoid_ik.run.trajectory import Trajectory
 
-__all__ = ["staged_model", "staged_spec"]
+__all__ = [
+    "FACING_MIN",
+    "FILL",
+    "facing",
+    "staged_model",
+    "staged_spec",
+    "trajectory_chains",
+    "trajectory_stage",
+]
 
 _STAGE = "stage_"
 _FOVY = 45.0
+FILL = 0.9
+"""The framed points fill at most this fraction of a stage camera's width and height."""
+FACING_MIN = 0.05
+"""A facing cue counts when it is at least this fraction of the chains' reach."""
+_MAX_POSES = 300  # a longer run's poses are thinned to this many, evenly spread
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
 
 
 def staged_model(
-    model: str | os.PathLike | None, points: ArrayLike | None = None
+    model: str | os.PathLike | None,
+    points: ArrayLike | None = None,
+    *,
+    poses: ArrayLike | None = None,
+    chains: Sequence[Chain] = (),
+    aspect: float = 4 / 3,
+    packages: Mapping[str, Path] | None = None,
 ) -> mujoco.MjModel:
     """The model at ``model`` (MJCF or URDF) placed in a default stage where it lacks one.
 
@@ -41,95 +81,254 @@ def staged_model(
     returned as :func:`load_model` compiles it. Otherwise what is missing is added, and
     nothing else changes (no joint, so ``qpos`` and every chain are the same):
 
-    - no light: a key light (directional, from the front right, casting shadows) and a
-      fill light from the back left;
-    - no plane geom: a checker floor under the lowest geom (no contacts), and a gradient
-      skybox when the model has none;
-    - each missing camera of :data:`STAGE_CAMERAS`: a camera looking at the centre of
-      the box around the geoms at the ``home`` pose (and ``points``, e.g. a scene's
-      targets), far enough for the box to fill the frame (``fovy`` 45 deg).
+    - no light: a key light (directional, from the robot's front right, casting
+      shadows) and a fill light from its back left;
+    - no plane geom: a checker floor under the lowest framed point (no contacts), and
+      a gradient skybox when the model has none;
+    - each missing camera of :data:`STAGE_CAMERAS`: facing the robot (:func:`facing`
+      of ``chains`` and ``points``) and framing the drawn geoms at each of ``poses``
+      (at the ``home`` pose without any), and ``points`` (``fovy`` 45 deg, see the
+      module's rules).
 
     Args:
         model: an MJCF or URDF path, ``None`` for the bundled humanoid.
-        points: world points ``(k, 3)`` [m] the cameras must also frame.
+        points: world points ``(k, 3)`` [m] the cameras must also frame (targets...).
+        poses: full ``qpos`` vectors ``(F, nq)`` whose geoms the cameras frame (a run's
+            frames; ``None``: the ``home`` pose).
+        chains: the chains filmed (on this model), for the robot's facing.
+        aspect: the frame's width / height.
+        packages: ROS package folders for a URDF's ``package://`` paths (as
+            :func:`load_model`).
 
     Raises:
         ModelError: as :func:`load_model`.
     """
-    base = load_model(model)
+    base = load_model(model, packages=packages)
     if not needs_stage(base):
         return base
-    return compile_spec(staged_spec(model, points, base), model_file(model))
+    spec = staged_spec(
+        model, points, base, poses=poses, chains=chains, aspect=aspect, packages=packages
+    )
+    return compile_spec(spec, model_file(model))
 
 
 def staged_spec(
     model: str | os.PathLike | None,
     points: ArrayLike | None = None,
     compiled: mujoco.MjModel | None = None,
+    *,
+    poses: ArrayLike | None = None,
+    chains: Sequence[Chain] = (),
+    aspect: float = 4 / 3,
+    packages: Mapping[str, Path] | None = None,
 ) -> mujoco.MjSpec:
     """The ``MjSpec`` of :func:`staged_model`, to edit further before compiling (e.g. to
     add mocap bodies); what the stage adds follows the same rule.
 
     Args:
-        model, points: as :func:`staged_model`.
+        model, points, poses, chains, aspect, packages: as :func:`staged_model`.
         compiled: the model already compiled from ``model`` (compiled here when ``None``).
 
     Raises:
         ModelError: as :func:`load_model`.
     """
-    base = load_model(model) if compiled is None else compiled
-    spec = model_spec(model)
+    base = load_model(model, packages=packages) if compiled is None else compiled
+    spec = model_spec(model, packages=packages)
     if not needs_stage(base):
         return spec
-    lo, hi = _framed_box(base, points)
+    pts = _framed_points(base, points, poses)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    forward = facing(chains, points)
     world = spec.worldbody
     if base.nlight == 0:
-        _add_lights(world, lo, hi)
+        _add_lights(world, lo, hi, forward)
     if not np.any(base.geom_type == mujoco.mjtGeom.mjGEOM_PLANE):
         _add_floor(spec, base, lo, hi)
     have = set(model_cameras(base))
+    heading = math.degrees(math.atan2(forward[1], forward[0]))
     for name, (azimuth, elevation) in STAGE_CAMERAS.items():
         if name not in have:
-            _add_camera(world, name, lo, hi, azimuth, elevation)
+            pos, xyaxes = _camera_pose(pts, heading + azimuth, elevation, aspect)
+            world.add_camera(name=name, pos=pos, xyaxes=xyaxes, fovy=_FOVY)
     return spec
 
 
-def _framed_box(
-    model: mujoco.MjModel, points: ArrayLike | None
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Corners of the world box around every non-plane geom at the ``home`` pose, and
-    ``points``."""
+def trajectory_stage(
+    model: str | os.PathLike,
+    trajectory: Trajectory,
+    aspect: float = 4 / 3,
+    compiled: mujoco.MjModel | None = None,
+    packages: Mapping[str, Path] | None = None,
+) -> mujoco.MjModel:
+    """The staged model to film ``trajectory`` (a run's, or one read from a file): facing
+    the robot its effectors' chains belong to, framing every frame's pose, target and
+    effector position and the trajectory's ``stage_points`` (:func:`staged_model`).
+
+    Args:
+        model: the model file the trajectory was recorded on.
+        trajectory: the frames to film.
+        aspect: the frame's width / height.
+        compiled: the model already compiled from ``model`` (compiled here when ``None``).
+        packages: as :func:`staged_model`.
+
+    Raises:
+        ModelError: as :func:`load_model`.
+        NameNotFoundError, ChainError: an effector does not fit the model.
+    """
+    base = load_model(model, packages=packages) if compiled is None else compiled
+    if not needs_stage(base):
+        return base
+    chains = trajectory_chains(base, trajectory)
+    points = [trajectory.stage_points] + [e.target for e in trajectory.effectors]
+    points += [e.achieved for e in trajectory.effectors if e.task == "reach"]
+    pts = np.concatenate([np.asarray(p, dtype=np.float64).reshape(-1, 3) for p in points])
+    spec = staged_spec(
+        model, pts, base, poses=trajectory.qpos, chains=chains, aspect=aspect, packages=packages
+    )
+
+    return compile_spec(spec, model_file(model))
+
+
+def trajectory_chains(
+    model: mujoco.MjModel, trajectory: Trajectory, task: str | None = None
+) -> list[Chain]:
+    """The chains of ``trajectory``'s effectors on ``model`` (one robot state), those of
+    ``task`` only when it is given (``reach``, ``look_at``).
+
+    Raises:
+        NameNotFoundError, ChainError: an effector does not fit the model.
+    """
+    robot = Robot(model)
+    out = []
+    for e in trajectory.effectors:
+        if task is not None and e.task != task:
+            continue
+        # a file from before effectors kept their kind says "site" for a body too
+        site = e.kind == "site" and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, e.site) >= 0
+        out.append(Chain(robot, e.site if site else None, e.joints, body=None if site else e.site))
+    return out
+
+
+def facing(chains: Sequence[Chain] = (), points: ArrayLike | None = None) -> NDArray[np.float64]:
+    """The robot's forward direction: a horizontal unit vector ``(3,)``.
+
+    The first cue at least :data:`FACING_MIN` of the chains' summed reach long, in the
+    horizontal plane, gives it:
+
+    1. the side toward which the chains reach: the sum of their
+       :meth:`~humanoid_ik.core.chain.Chain.reach_mean` (an arm's elbow and shoulder
+       reach forward more than back; a turntable base or a yawing waist reaches all
+       round and gives no cue);
+    2. the side their end effectors are on at home: the sum of effector minus base;
+    3. the side ``points`` (a scene's targets) are on, from the chains' mean base (the
+       origin without chains).
+
+    Without any, +x (the forward axis of a ROS robot's base).
+
+    Args:
+        chains: the chains filmed; each is left as it was.
+        points: world points ``(k, 3)`` [m].
+    """
+    scale = sum(c.reach()[1] for c in chains) or 1.0
+    cues = [sum((c.reach_mean() for c in chains), np.zeros(3))]
+    home = np.zeros(3)
+    for c in chains:
+        keep = c.q
+        p, _ = c.fk(c.q_home)
+        home += p - c.base
+        c.set_q(keep)
+    cues.append(home)
+    if points is not None and len(np.asarray(points).reshape(-1, 3)):
+        origin = np.mean([c.base for c in chains], axis=0) if chains else np.zeros(3)
+        cues.append(np.asarray(points, dtype=np.float64).reshape(-1, 3).mean(axis=0) - origin)
+    for cue in cues:
+        flat = np.array([cue[0], cue[1], 0.0])
+        length = float(np.linalg.norm(flat))
+        if length >= FACING_MIN * scale:
+            return flat / length
+    return np.array([1.0, 0.0, 0.0])
+
+
+def _framed_points(
+    model: mujoco.MjModel, points: ArrayLike | None, poses: ArrayLike | None
+) -> NDArray[np.float64]:
+    """The corners ``(k, 3)`` of every drawn non-plane geom's box at each of ``poses`` (at
+    the ``home`` pose without any), and ``points``."""
     data = mujoco.MjData(model)
     reset_to_home(model, data)
-    mujoco.mj_kinematics(model, data)
-    corners = [np.zeros((0, 3))]
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
-    for g in range(model.ngeom):
-        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
-            continue
-        center, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
-        local = center + signs * half  # (8, 3) in the geom frame
-        R = data.geom_xmat[g].reshape(3, 3)
-        corners.append(data.geom_xpos[g] + local @ R.T)
+    drawn = np.flatnonzero(
+        (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE)
+        & (model.geom_group < 3)  # the groups a film draws
+        & (model.geom_rgba[:, 3] > 0)
+    )
+    local = model.geom_aabb[drawn, None, :3] + _CORNERS * model.geom_aabb[drawn, None, 3:]
+    qs = [data.qpos.copy()]
+    arr = np.zeros((0, model.nq)) if poses is None else np.asarray(poses, dtype=np.float64)
+    arr = arr.reshape(-1, model.nq)
+    if len(arr):  # the poses filmed (the home pose is not one of them: frame 0 is solved)
+        step = max(1, math.ceil(len(arr) / _MAX_POSES))
+        qs = list(arr[::step]) + [arr[-1]]
+    out = [np.zeros((0, 3))]
+    for q in qs:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        R = data.geom_xmat[drawn].reshape(-1, 3, 3)
+        out.append((data.geom_xpos[drawn, None] + local @ R.transpose(0, 2, 1)).reshape(-1, 3))
     if points is not None:
-        corners.append(np.asarray(points, dtype=np.float64).reshape(-1, 3))
-    allpts = np.concatenate(corners)
-    if not len(allpts):
-        allpts = np.zeros((1, 3))
-    return allpts.min(axis=0), allpts.max(axis=0)
+        out.append(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+    pts = np.concatenate(out)
+    return pts if len(pts) else np.zeros((1, 3))
 
 
-def _add_lights(world: mujoco.MjsBody, lo: NDArray, hi: NDArray) -> None:
+def _camera_pose(
+    pts: NDArray[np.float64], azimuth: float, elevation: float, aspect: float
+) -> tuple[NDArray[np.float64], list[float]]:
+    """Position and ``xyaxes`` of a camera looking from ``(azimuth, elevation)`` [deg]
+    (azimuth 0 on +x, counterclockwise; elevation < 0 looks down) as close as it can be
+    with every point of ``pts`` inside the middle :data:`FILL` of its frame.
+
+    With the camera's right ``r``, up ``u`` and backward ``b`` axes, a point at offset
+    ``x, y`` (along ``r``, ``u``) and depth offset ``d = -b . (p - c0)`` from the
+    centre ``c0`` is at depth ``D + d`` from a camera at ``c0 + s_x r + s_y u + D b``,
+    and in the frame when ``|x - s_x| <= a (D + d)`` (``a = FILL tan(fovy / 2)``, times
+    ``aspect`` across). The closest such camera has ``D = (max(x - a d) - min(x + a d))
+    / 2a`` (the larger of the two axes') and ``s_x = (max(x - a d) + min(x + a d)) / 2``.
+    """
+    az, el = math.radians(azimuth), math.radians(elevation)
+    back = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), -math.sin(el)])
+    right = np.array([-math.sin(az), math.cos(az), 0.0])
+    up = np.cross(back, right)
+    up /= np.linalg.norm(up)
+    c0 = (pts.min(axis=0) + pts.max(axis=0)) / 2
+    rel = pts - c0
+    d = -(rel @ back)
+    half = math.tan(math.radians(_FOVY / 2)) * FILL
+    shifts, dist = [], 0.0
+    for axis, a in ((right, half * aspect), (up, half)):
+        x = rel @ axis
+        far, near = float(np.max(x - a * d)), float(np.min(x + a * d))
+        shifts.append((far + near) / 2)
+        dist = max(dist, (far - near) / (2 * a))
+    size = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    dist = max(dist, float(-d.min()) + 0.05 * max(size, 0.1))  # never inside the points
+    pos = c0 + shifts[0] * right + shifts[1] * up + dist * back
+    return pos, [*right, *up]
+
+
+def _add_lights(world: mujoco.MjsBody, lo: NDArray, hi: NDArray, forward: NDArray) -> None:
+    """A key light from the robot's front right and a fill light from its back left."""
     center, size = (lo + hi) / 2, max(float(np.linalg.norm(hi - lo)), 0.5)
+    left = np.cross([0.0, 0.0, 1.0], forward)
+    frame = np.array([forward, left, [0.0, 0.0, 1.0]]).T  # robot (front, left, up) -> world
     key = world.add_light(name=f"{_STAGE}key", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-    key.pos = center + size * np.array([1.0, -0.8, 1.5])
-    key.dir = np.array([-0.5, 0.4, -1.0])
+    key.pos = center + size * frame @ np.array([1.0, -0.8, 1.5])
+    key.dir = frame @ np.array([-0.5, 0.4, -1.0])
     key.diffuse = [0.7, 0.7, 0.7]
     key.specular = [0.2, 0.2, 0.2]
     key.castshadow = True
     fill = world.add_light(name=f"{_STAGE}fill", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-    fill.pos = center + size * np.array([-1.0, 1.2, 1.2])
-    fill.dir = np.array([0.5, -0.6, -0.8])
+    fill.pos = center + size * frame @ np.array([-1.0, 1.2, 1.2])
+    fill.dir = frame @ np.array([0.5, -0.6, -0.8])
     fill.diffuse = [0.3, 0.3, 0.3]
     fill.specular = [0.0, 0.0, 0.0]
     fill.castshadow = False
@@ -172,30 +371,4 @@ def _add_floor(spec: mujoco.MjSpec, model: mujoco.MjModel, lo: NDArray, hi: NDAr
         material=f"{_STAGE}floor",
         contype=0,
         conaffinity=0,
-    )
-
-
-def _add_camera(
-    world: mujoco.MjsBody,
-    name: str,
-    lo: NDArray,
-    hi: NDArray,
-    azimuth: float,
-    elevation: float,
-) -> None:
-    """A camera at ``(azimuth, elevation)`` from the box's centre, at the distance where
-    the box's bounding sphere fills the vertical field of view."""
-    center = (lo + hi) / 2
-    radius = max(float(np.linalg.norm(hi - lo)) / 2, 0.05)
-    distance = 1.05 * radius / math.sin(math.radians(_FOVY / 2))
-    az, el = math.radians(azimuth), math.radians(elevation)
-    # from the centre to the camera (azimuth 0: on +x, -90: on -y; counterclockwise)
-    back = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), -math.sin(el)])
-    x_axis = np.array([-math.sin(az), math.cos(az), 0.0])  # right in the image
-    y_axis = np.cross(back, x_axis)  # up in the image
-    world.add_camera(
-        name=name,
-        pos=center + distance * back,
-        xyaxes=[*x_axis, *(y_axis / np.linalg.norm(y_axis))],
-        fovy=_FOVY,
     )

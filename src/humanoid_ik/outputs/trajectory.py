@@ -21,9 +21,10 @@ import numpy as np
 from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model
+from humanoid_ik.core.robot_files import PackagePaths
 from humanoid_ik.errors import TrajectoryFileError
 from humanoid_ik.outputs.atomic import atomic_path, write_text
-from humanoid_ik.outputs.stage import staged_model
+from humanoid_ik.outputs.stage import trajectory_stage
 from humanoid_ik.run.trajectory import (
     TRAJECTORY_FORMAT,
     TRAJECTORY_VERSION,
@@ -63,7 +64,7 @@ def _header(traj: Trajectory) -> dict[str, Any]:
         "stage_points": traj.stage_points.tolist(),
         "effectors": [
             {
-                "site": e.site,
+                e.kind: e.site,
                 "target": e.target_name,
                 "task": e.task,
                 "solver": e.solver,
@@ -99,7 +100,8 @@ def _npz_arrays(traj: Trajectory) -> dict[str, Any]:
 
 def _columns(traj: Trajectory) -> list[str]:
     """The CSV columns: frame, time, every ``qpos`` entry, then per effector (prefixed
-    ``<site>.``) target, target orientation (pose targets), achieved, error, flags."""
+    with its site's or body's name, ``<name>.``) target, target orientation (pose
+    targets), achieved, error, flags."""
     cols = ["frame", "time_s", *traj.qpos_names]
     for e in traj.effectors:
         p = f"{e.site}."
@@ -157,6 +159,13 @@ def _check_header(header: Any, path: Path) -> dict[str, Any]:
     return header
 
 
+def _kind(effector: dict[str, Any]) -> str:
+    """What an effector of a file's header names: ``body`` when it has a ``body`` key,
+    else ``site`` (also a file written before the kind was kept, which said ``site``
+    for a body too)."""
+    return "body" if "body" in effector else "site"
+
+
 def _trajectory(header: dict[str, Any], arrays: dict[str, Any], path: Path) -> Trajectory:
     """A :class:`Trajectory` from a header and its arrays (``effector{k}_*``, ``time``,
     ``qpos``); a missing key is a :class:`TrajectoryFileError` naming it."""
@@ -165,9 +174,11 @@ def _trajectory(header: dict[str, Any], arrays: dict[str, Any], path: Path) -> T
         for k, e in enumerate(header["effectors"]):
             prefix = f"effector{k}_"
             a = {key[len(prefix) :]: v for key, v in arrays.items() if key.startswith(prefix)}
+            kind = _kind(e)
             tracks.append(
                 EffectorTrack(
-                    site=e["site"],
+                    site=e[kind],
+                    kind=kind,
                     target_name=e["target"],
                     task=e["task"],
                     solver=e["solver"],
@@ -241,7 +252,7 @@ def _read_csv(path: Path) -> Trajectory:
     arrays["qpos"] = floats(list(header["qpos_names"]))
     try:
         for k, e in enumerate(header["effectors"]):
-            p, key = f"{e['site']}.", f"effector{k}_"
+            p, key = f"{e[_kind(e)]}.", f"effector{k}_"
             arrays[key + "target"] = floats([f"{p}target_{c}" for c in "xyz"])
             if e["pose_target"]:
                 arrays[key + "target_quat"] = floats([f"{p}target_{c}" for c in _QUAT])
@@ -277,7 +288,11 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
 
 
 def open_trajectory(
-    path: str | os.PathLike, model_file: str | os.PathLike | None = None, staged: bool = False
+    path: str | os.PathLike,
+    model_file: str | os.PathLike | None = None,
+    staged: bool = False,
+    *,
+    packages: PackagePaths | None = None,
 ) -> tuple[Trajectory, mujoco.MjModel, str]:
     """A trajectory with the model it was recorded on, checked against each other.
 
@@ -286,6 +301,8 @@ def open_trajectory(
         model_file: the model file (default: the one the trajectory names).
         staged: place the model in the default stage as the run did (for filming: the
             same lights, floor and cameras, framed on the trajectory's stage points).
+        packages: ROS package folders of a URDF's ``package://`` paths
+            (``--package-path``; see ``docs/robots.md``).
 
     Returns:
         The trajectory, the compiled model and the model file's digest.
@@ -302,7 +319,10 @@ def open_trajectory(
             f"model file '{mfile}' of trajectory '{path}' does not exist; pass the model it "
             "was recorded on with --model"
         )
-    model = staged_model(mfile, traj.stage_points) if staged else load_model(mfile)
-    digest = model_digest(mfile)
+    model = load_model(mfile, packages=packages)
+    digest = model_digest(mfile, packages=packages)
     check_trajectory_model(traj, model, digest)
+    if staged:
+        aspect = traj.render.width / traj.render.height
+        model = trajectory_stage(mfile, traj, aspect, model, packages=packages)
     return traj, model, digest

@@ -22,14 +22,14 @@ class EffectorSample(NamedTuple):
     tuple: made once per effector and frame, read-only.
 
     Attributes:
-        effector: the site name.
+        effector: the end effector's name (a site's or a body's).
         target_name: the target it tracks.
         task: ``reach`` or ``look_at``.
         target: target position ``(3,)`` [m].
-        achieved: the site position ``(3,)`` [m]; for ``look_at`` the gaze point (on the
-            site's x axis, as far from the site as the target).
-        position_error: distance from the site to the target [m]; for ``look_at`` the
-            distance from the target to the gaze ray.
+        achieved: the end effector's position ``(3,)`` [m]; for ``look_at`` the gaze
+            point (on the site's x axis, as far from the site as the target).
+        position_error: distance from the end effector to the target [m]; for
+            ``look_at`` the distance from the target to the gaze ray.
         orientation_error: angle between achieved and target orientation [rad] (pose
             targets), the gaze's angle off the target (``look_at``), else ``None``.
         iterations: the solver's iterations.

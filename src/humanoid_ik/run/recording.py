@@ -207,6 +207,7 @@ class Recording:
             iterations=column("iterations", int),
             solve_time=column("solve_time", float),
             limit_margin=column("limit_margin", float),
+            kind=eff.kind,
         )
 
     def trajectory(self) -> Trajectory:
@@ -231,7 +232,7 @@ class Recording:
             scene=sc.name,
             scene_file="" if sc.path is None else str(sc.path),
             model_file=str(sc.model),
-            model_sha256=model_digest(sc.model),
+            model_sha256=model_digest(sc.model, packages=sc.packages),
             render=sc.render,
             interrupted=self.interrupted,
             stage_points=sc.target_points(),

@@ -14,7 +14,9 @@ Per frame ``i`` at ``t = i / fps``:
 4. metrics are read from that ``MjData`` and the results: target and achieved
    position, position and orientation error (a result's errors are measured once, by
    MuJoCo FK at the pose it returns, which is the pose the frame shows), iterations,
-   solve time, the nearest joint-limit margin, and whether the target is within reach.
+   solve time, the nearest joint-limit margin, and whether the target is within reach
+   (no farther from the chain's base, its first joint's anchor at this frame, than the
+   chain's sampled reach, :meth:`Chain.reach <humanoid_ik.core.chain.Chain.reach>`).
 
 Solvers that move several effectors at once (the hook): a solver with
 ``solves_effectors`` set receives every effector that uses it in one
@@ -148,7 +150,11 @@ class SceneRunner:
         sets it for its sinks (:func:`needs_forward`)."""
         self.specs: list[SolverSpec] = [scene.solver_for(e) for e in scene.effectors]
         self.targets = [scene.target(e.target) for e in scene.effectors]
-        self._reach = [(b.tolist(), r) for b, r in (c.reach() for c in self.chains)]
+        # each reaching chain's sampled reach [m], computed once (the robot keeps it)
+        self._reach = [
+            c.reach()[1] if e.task == "reach" else math.inf
+            for c, e in zip(self.chains, scene.effectors, strict=True)
+        ]
         # one solver object per distinct spec; effectors sharing a multi-effector solver
         # are solved together
         self._groups: list[tuple[Any, list[int]]] = []
@@ -284,8 +290,7 @@ class SceneRunner:
             if target.quat is not None:
                 orient = res.orientation_error
             on = on_target(err, orient)
-            base, reach = self._reach[i]
-            reachable = math.dist(pd.tolist(), base) <= reach
+            reachable = math.dist(pd.tolist(), chain.base.tolist()) <= self._reach[i]
         return EffectorSample(
             effector=eff.name,
             target_name=eff.target,

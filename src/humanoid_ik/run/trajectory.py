@@ -27,6 +27,7 @@ from humanoid_ik.errors import TrajectoryFileError
 from humanoid_ik.run.metrics import EffectorSample, FrameRecord
 
 __all__ = [
+    "EFFECTOR_KINDS",
     "TRAJECTORY_FORMAT",
     "TRAJECTORY_VERSION",
     "EffectorTrack",
@@ -39,6 +40,8 @@ TRAJECTORY_FORMAT = "humanoid-ik trajectory"
 """The ``format`` of a trajectory file's metadata."""
 TRAJECTORY_VERSION = 1
 """The version of the trajectory files this package writes and reads."""
+EFFECTOR_KINDS = ("site", "body")
+"""What an effector's name may name (:attr:`EffectorTrack.kind`)."""
 
 _FREE = ("x", "y", "z", "qw", "qx", "qy", "qz")
 _BALL = ("qw", "qx", "qy", "qz")
@@ -79,7 +82,7 @@ class EffectorTrack:
     """One effector over the frames of a trajectory (``F`` frames).
 
     Attributes:
-        site: the end effector: its site, or its body (a body end effector).
+        site: the end effector's name: a site's, or a body's (:attr:`kind` says which).
         target_name: the target it tracks.
         task: ``reach`` or ``look_at``.
         solver: the solver's label, e.g. ``dls(restarts=0)``.
@@ -96,9 +99,11 @@ class EffectorTrack:
         iterations: the solver's iterations ``(F,)``.
         solve_time: the solver's wall time ``(F,)`` [s].
         limit_margin: the nearest joint's distance to its range end ``(F,)`` [rad].
+        kind: ``site`` or ``body``: what :attr:`site` names.
 
-    The last four are in files from this release on; a file without them reads as NaN
-    (0 iterations).
+    The four sample fields are in files from this release on; a file without them reads
+    as NaN (0 iterations). A file that names its body effectors ``site`` (written before
+    the kind was kept) reads as sites.
     """
 
     site: str
@@ -118,8 +123,14 @@ class EffectorTrack:
     iterations: NDArray[np.int64] | None = None
     solve_time: NDArray[np.float64] | None = None
     limit_margin: NDArray[np.float64] | None = None
+    kind: str = "site"
 
     def __post_init__(self) -> None:
+        if self.kind not in EFFECTOR_KINDS:
+            raise TrajectoryFileError(
+                f"effector '{self.site}' kind: expected one of {', '.join(EFFECTOR_KINDS)}, "
+                f"got {self.kind!r}"
+            )
         object.__setattr__(self, "joints", tuple(self.joints))
         object.__setattr__(self, "status", tuple(str(s) for s in self.status))
         n = len(self.status)

@@ -15,7 +15,10 @@ A position target ``lm`` misses goes to a second opinion where one applies:
 elbow hinges, no joint after the elbow); their answer to a target beyond reach is the
 arm stretched towards it, with the status ``unreachable``. The closer of the two answers
 is returned. A pose target ``closed_form`` calls unreachable is unreachable within the
-ranges (the closed form is complete), so it is returned as is.
+ranges (the closed form is complete), so it is returned as is; a pose target ``lm``
+misses is tried again by ``lm`` from :data:`RETRY_RESTARTS` further starts of another
+seed (UR5's straight-elbow targets, which 21 starts may miss), and the better of the
+two answers is returned.
 
 The answer records the choice: :attr:`IKResult.solver` names the solver that produced
 it, and ``details["auto"]`` lists the solvers tried, in order.
@@ -34,9 +37,13 @@ from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.analytic.two_link.geometry import limb_cache
 from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.iterate import pose_cost
 from humanoid_ik.solvers.jacobian.lm import LM
 
-__all__ = ["Auto"]
+__all__ = ["RETRY_RESTARTS", "Auto"]
+
+RETRY_RESTARTS = 100
+"""Starts of ``lm``'s second try at a pose target its first try missed."""
 
 
 class Auto(Solver):
@@ -62,6 +69,7 @@ class Auto(Solver):
         self._closed_form = ClosedForm(**given)
         self._two_link = TwoLink(**given)
         self._lm = LM(**given)
+        self._lm_retry = LM(**given, restarts=RETRY_RESTARTS, seed=1)
         self._by_name: dict[str, Solver] = {
             s.name: s for s in (self._closed_form, self._two_link, self._lm)
         }
@@ -103,7 +111,14 @@ class Auto(Solver):
         first = self.choice(chain, target.is_pose)
         result = first._solve(chain, target, q0)
         tried: tuple[str, ...] = (first.name,)
-        if not result.converged and not target.is_pose:
+        if not result.converged and target.is_pose and first is self._lm:
+            retry = self._lm_retry._solve(chain, target, q0)
+            tried += ("lm",)
+            if retry.converged or _cost(retry) < _cost(result):
+                result = retry
+            else:
+                chain.set_q(result.q)
+        elif not result.converged and not target.is_pose:
             # lm's miss to the closed form, whose answer to a target out of reach is the
             # arm stretched towards it
             second = self.second_opinion(chain)
@@ -115,3 +130,7 @@ class Auto(Solver):
                 else:
                     chain.set_q(result.q)  # the scratch data at the returned pose
         return result.with_details(auto=tried)  # the choice added to its details
+
+
+def _cost(result: IKResult) -> float:
+    return pose_cost(result.position_error, result.orientation_error)

@@ -1,8 +1,14 @@
 """The solvers by name, ``make_solver(name, **options)``, and one-call IK:
-``solve(chain, target, solver=...)`` with the caller's MjData left alone."""
+``solve(chain, target, solver=...)`` with the caller's MjData left alone.
+
+``solve`` given a solver name reuses one solver object per name and options (solvers
+hold no state, so one object serves every chain and thread): the call costs what the
+solver costs, not the building of it (``benchmarks/solve_call.py``).
+"""
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import mujoco
@@ -55,6 +61,29 @@ def make_solver(name: str, **options: Any) -> Solver:
     return cls(**options)
 
 
+_MADE: dict[tuple[str, tuple[tuple[str, Any], ...]], Solver] = {}
+_MADE_LOCK = threading.Lock()
+_MADE_MAX = 64
+"""At most this many solver objects are kept for :func:`solve` (then all are dropped)."""
+
+
+def _solver_for(name: str, options: dict[str, Any]) -> Solver:
+    """The solver object :func:`solve` uses for ``name`` and ``options``: made once,
+    then reused (options that cannot be hashed, such as lists, make a new one)."""
+    key = (name, tuple(sorted(options.items())))
+    try:
+        found = _MADE.get(key)
+    except TypeError:  # an unhashable option value
+        return make_solver(name, **options)
+    if found is not None:
+        return found
+    made = make_solver(name, **options)
+    with _MADE_LOCK:
+        if len(_MADE) >= _MADE_MAX:
+            _MADE.clear()
+        return _MADE.setdefault(key, made)
+
+
 def solve(
     chain: Chain,
     target: Target | ArrayLike,
@@ -91,7 +120,7 @@ def solve(
             f"solver must be a solver name or a Solver, got {type(solver).__name__}; "
             f"solvers: {', '.join(sorted(SOLVERS))}"
         )
-    s = make_solver(solver, **options) if isinstance(solver, str) else solver
+    s = _solver_for(solver, options) if isinstance(solver, str) else solver
     result = s.solve(chain, tgt, q0, data=data)
     if apply and data is not None and result.converged:
         chain.apply(result.q, data)

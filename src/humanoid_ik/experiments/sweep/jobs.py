@@ -22,6 +22,7 @@ from humanoid_ik.config.scene import SolverSpec, load_scene
 from humanoid_ik.config.sweep_file import Job, reseeded, scene_digest
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.model_files import model_digest
+from humanoid_ik.core.models import load_model
 from humanoid_ik.errors import SweepError
 from humanoid_ik.experiments.bench import make_targets, not_reaching, run_trials
 from humanoid_ik.run.runner import run_scene
@@ -69,14 +70,14 @@ def _nan_median(values: Sequence[float | None]) -> float | None:
     return float(np.median(arr)) if arr.size else None
 
 
-def _check_model(job: Job, model: str | os.PathLike) -> None:
+def _check_model(job: Job, model: str | os.PathLike, packages: Any = None) -> None:
     """The model's files are those the job's id was made from (when it names them).
 
     Raises:
         SweepError: a model file changed after the sweep was loaded.
     """
     want = job.param.get("model_sha256")
-    if want is not None and model_digest(model) != want:
+    if want is not None and model_digest(model, packages=packages) != want:
         raise SweepError(
             str(model),
             "",
@@ -93,9 +94,10 @@ def _run_targets(job: Job) -> dict[str, Any]:
     """
     if job.seed is None:
         raise SweepError(None, "seed", f"target-set job {job.describe()} needs a seed")
-    _check_model(job, job.location)
+    _check_model(job, job.location, job.package_dict)
     p = job.param
-    chain = Chain(job.location, p["site"], p["joints"], body=p.get("body"))
+    model = load_model(job.location, packages=job.package_dict)
+    chain = Chain(model, p["site"], p["joints"], body=p.get("body"))
     pose = p["task"] == "pose"
     solver = make_solver(job.solver, **job.options_dict)
     reason = not_reaching(solver, chain, pose)
@@ -123,12 +125,12 @@ def _run_scene(job: Job) -> dict[str, Any]:
         SweepError: the scene file or its model changed after the sweep was loaded.
     """
     p = job.param
-    scene = load_scene(job.location)
+    scene = load_scene(job.location, packages=job.package_dict)
     if scene_digest(job.location) != p["scene_sha256"]:
         raise SweepError(
             job.location, "", "the scene file changed after the sweep was loaded; load it again"
         )
-    _check_model(job, scene.model)
+    _check_model(job, scene.model, scene.packages)
     scene = scene.with_overrides(solver=SolverSpec(job.solver, job.options_dict))
     if job.seed is not None:
         scene = reseeded(scene, job.seed)

@@ -10,7 +10,8 @@ Modules:
 
 - ``backend``: the OpenGL backend (EGL, OSMesa, GLFW) and the only code that changes
   process state for it (``MUJOCO_GL``, ``PYOPENGL_PLATFORM``, MuJoCo's ``GLContext``);
-- ``drawing``: :class:`FrameRenderer` (markers, trails, cues, :func:`project`) and the
+- ``drawing``: :class:`FrameRenderer` (markers sized by :func:`marker_radius` and shown
+  through the robot when it hides them, trails, cues, :func:`project`) and the
   :class:`Film` frame sink;
 - ``video``: :class:`VideoWriter`, the MP4 through ``imageio-ffmpeg``;
 - ``stills``: PNG snapshots, the contact sheet and the GIF;
@@ -23,12 +24,16 @@ from humanoid_ik.outputs.render.backend import INSTALL_HINT, Backend, select_bac
 from humanoid_ik.outputs.render.drawing import (
     COLORS,
     HALO_RADIUS,
+    MARKER_HAND,
+    MARKER_MIN_PX,
     MARKER_RADIUS,
+    MARKER_REACH,
     TRAIL_COLORS,
     TRAIL_WIDTH,
     Film,
     FrameRenderer,
     camera_id,
+    marker_radius,
     project,
     track_quats,
 )
@@ -46,7 +51,10 @@ __all__ = [
     "COLORS",
     "HALO_RADIUS",
     "INSTALL_HINT",
+    "MARKER_HAND",
+    "MARKER_MIN_PX",
     "MARKER_RADIUS",
+    "MARKER_REACH",
     "TRAIL_COLORS",
     "TRAIL_WIDTH",
     "Backend",
@@ -57,6 +65,7 @@ __all__ = [
     "VideoWriter",
     "camera_id",
     "check_output_dir",
+    "marker_radius",
     "plot_metrics",
     "project",
     "render_scene",

@@ -3,6 +3,12 @@ marker, trail and cues added to its scene, and where a world point lands in the 
 
 :class:`FrameRenderer` draws; :class:`Film` is the runner's frame sink that draws each
 frame and hands the picture to the image sinks (video, stills, GIF).
+
+Target markers are sized to the robot (:func:`marker_radius`: in proportion to the arm's
+reach and its hand, at least :data:`MARKER_MIN_PX` pixels) and stay
+visible when the robot hides them: a marker whose centre and halo are all behind geoms
+(rays from the camera, ``mj_ray``) is painted over the rendered picture as well,
+translucent, so it shows through the hand that holds it.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.models import model_cameras
 from humanoid_ik.errors import RenderError
 from humanoid_ik.motion import TargetTrack
@@ -25,7 +32,10 @@ from humanoid_ik.run.metrics import FrameRecord
 __all__ = [
     "COLORS",
     "HALO_RADIUS",
+    "MARKER_MIN_PX",
     "MARKER_RADIUS",
+    "MARKER_HAND",
+    "MARKER_REACH",
     "TRAIL_COLORS",
     "TRAIL_WIDTH",
     "Film",
@@ -33,6 +43,7 @@ __all__ = [
     "ImageSink",
     "Quats",
     "camera_id",
+    "marker_radius",
     "project",
     "track_quats",
 ]
@@ -54,9 +65,21 @@ TRAIL_COLORS = (
 )
 """Trail colour of effector 0, 1, 2, 3 (then repeating)."""
 MARKER_RADIUS = 0.02
-"""Target marker radius [m] (an opaque core)..."""
+"""Target marker radius [m] (an opaque core) on an arm of :data:`MARKER_REACH` (the
+bundled humanoid's): :func:`marker_radius` scales it with the arm's reach..."""
 HALO_RADIUS = 0.04
-"""... inside a translucent halo [m], which shows around a hand that covers the core."""
+"""... inside a translucent halo of twice the radius [m] (here), which shows around a
+hand that covers the core."""
+MARKER_REACH = 0.63
+"""The reach [m] of the arm whose markers have :data:`MARKER_RADIUS` (the bundled
+humanoid's: shoulder to palm)..."""
+MARKER_HAND = 0.121
+"""... and the size of its hand [m]: the radius of the sphere around the hand's geoms."""
+MARKER_MIN_PX = 1.5
+"""A marker's core radius is at least this many pixels at its depth (3 across; the halo
+twice)."""
+_SHOWN_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)  # the geom groups a film draws
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
 TRAIL_WIDTH = 3.0
 """Trail width [px] at 480 rows (scaled with the frame height)."""
 
@@ -107,35 +130,92 @@ def project(
     return u, v, depth
 
 
+def marker_radius(chains: Sequence[Chain]) -> float:
+    """The core radius [m] of a film's target markers, for the reaching ``chains`` filmed:
+    the marker is to the arm and the hand what it is on the bundled humanoid.
+
+    ``MARKER_RADIUS * min(R / MARKER_REACH, h / MARKER_HAND)`` for the chain of largest
+    reach ``R`` (:meth:`~humanoid_ik.core.chain.Chain.reach`), ``h`` its hand: the
+    radius of the sphere around the drawn geoms of its end effector's body and the
+    bodies below it (the nearest body above with geoms when they have none). Without a
+    chain (a film of gazes only), :data:`MARKER_RADIUS`. The renderer keeps it at least
+    :data:`MARKER_MIN_PX` pixels.
+    """
+    if not chains:
+        return MARKER_RADIUS
+    chain = max(chains, key=lambda c: c.reach()[1])
+    scale = chain.reach()[1] / MARKER_REACH
+    hand = _hand_radius(chain)
+    return MARKER_RADIUS * (min(scale, hand / MARKER_HAND) if hand > 0 else scale)
+
+
+def _hand_radius(chain: Chain) -> float:
+    """Radius [m] of the sphere around the drawn geoms at the end of ``chain`` (see
+    :func:`marker_radius`), at the chain's current pose; 0 when there is none."""
+    m, d = chain.model, chain.data
+    body = int(m.site_bodyid[chain.ee_id]) if chain.ee_kind == "site" else chain.ee_id
+    drawn = (m.geom_group < 3) & (m.geom_rgba[:, 3] > 0)
+    drawn &= m.geom_type != mujoco.mjtGeom.mjGEOM_PLANE
+    while body > 0:
+        below = {body}
+        for b in range(body + 1, m.nbody):  # a child's id is above its parent's
+            if int(m.body_parentid[b]) in below:
+                below.add(b)
+        geoms = np.flatnonzero(drawn & np.isin(m.geom_bodyid, list(below)))
+        if len(geoms):
+            box = m.geom_aabb[geoms, None, :3] + _CORNERS * m.geom_aabb[geoms, None, 3:]
+            R = d.geom_xmat[geoms].reshape(-1, 3, 3)
+            pts = (d.geom_xpos[geoms, None] + box @ R.transpose(0, 2, 1)).reshape(-1, 3)
+            return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) / 2
+        body = int(m.body_parentid[body])
+    return 0.0
+
+
 # ----------------------------------------------------------------------------- drawing
 class FrameRenderer:
     """Renders frames of a scene run with targets, trails and cues drawn in.
 
     Per effector: the target as a sphere (green on target, orange while tracking, red
-    while out of reach), a pose target's axes, the recent path of the end effector (or
-    of the gaze point) as a fading trail, a red line from the effector to a target out
-    of reach, and the gaze ray of a ``look_at`` effector.
+    while out of reach) of radius ``marker`` in a halo of twice that (each at least
+    :data:`MARKER_MIN_PX` / twice that many pixels), painted over the picture too when
+    geoms hide it all; a pose target's axes, the recent path of the end effector (or of
+    the gaze point) as a fading trail, a red line from the effector to a target out of
+    reach, and the gaze ray of a ``look_at`` effector.
 
     Args:
         model: the scene's model.
         width, height: frame size [px].
         camera: a named camera.
         trail: how many past positions each trail keeps.
+        marker: the markers' core radius [m] (:func:`marker_radius`).
 
     Raises:
         RenderError: unknown camera, or no working OpenGL backend.
     """
 
-    def __init__(self, model: mujoco.MjModel, width: int, height: int, camera: str, trail: int):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        width: int,
+        height: int,
+        camera: str,
+        trail: int,
+        marker: float = MARKER_RADIUS,
+    ):
         self.model = model
         self.camera = camera
         self.camera_id = camera_id(model, camera)
         self.width, self.height = width, height
         self.renderer = open_renderer(model, width, height)
         self.trail = max(0, int(trail))
+        self.marker = float(marker)
         self._trails: list[deque[NDArray[np.float64]]] = []
         self._mat = np.eye(3).reshape(9)
         self._sites: dict[str, int] = {}
+        self._focal = (
+            0.5 * height / math.tan(math.radians(float(model.cam_fovy[self.camera_id])) / 2)
+        )
+        self._hidden: list[tuple[float, float, float, tuple[float, ...]]] = []
 
     def close(self) -> None:
         """Free the OpenGL context."""
@@ -236,8 +316,7 @@ class FrameRenderer:
                 color = COLORS["unreachable"]
             if s.target_name not in drawn:
                 drawn.add(s.target_name)
-                self._sphere(scene, s.target, MARKER_RADIUS, color)
-                self._sphere(scene, s.target, HALO_RADIUS, (*color[:3], 0.3))
+                self._marker(scene, data, s.target, color)
             site = self._effector_xpos(data, s.effector)
             if s.task == "look_at":
                 self._segment(scene, site, s.achieved, 2.0, COLORS["gaze"])
@@ -254,6 +333,52 @@ class FrameRenderer:
             for axis, rgb in enumerate(((0.9, 0.3, 0.3), (0.3, 0.9, 0.3), (0.3, 0.4, 1.0))):
                 end = s.target + 0.09 * R[:, axis]
                 self._segment(scene, s.target, end, 3.0, (*rgb, 1.0))
+
+    def _marker(self, scene, data: mujoco.MjData, target: NDArray, color) -> None:
+        """A target's sphere and halo, at least :data:`MARKER_MIN_PX` pixels at its depth;
+        noted for :meth:`render` to paint over the picture when geoms hide it all."""
+        cam, R = data.cam_xpos[self.camera_id], data.cam_xmat[self.camera_id].reshape(3, 3)
+        local = R.T @ (target - cam)
+        depth = -float(local[2])
+        if depth <= 1e-6:  # behind the camera
+            return
+        radius = max(self.marker, MARKER_MIN_PX * depth / self._focal)
+        self._sphere(scene, target, radius, color)
+        self._sphere(scene, target, 2 * radius, (*color[:3], 0.3))
+        if self._covered(data, cam, target, [R[:, 0], -R[:, 0], R[:, 1], -R[:, 1]], radius):
+            u = 0.5 * self.width + self._focal * float(local[0]) / depth
+            v = 0.5 * self.height - self._focal * float(local[1]) / depth
+            self._hidden.append((u, v, self._focal * radius / depth, tuple(color[:3])))
+
+    def _covered(self, data, cam: NDArray, target: NDArray, sides: list, radius: float) -> bool:
+        """Whether geoms hide the whole marker: the rays from the camera to its centre and
+        to its halo's edge on each side (``sides``: unit vectors across the view) all
+        meet a drawn geom first (``mj_ray``)."""
+        gid = np.array([-1], dtype=np.int32)
+        for point, margin in [(target, radius)] + [(target + 2 * radius * e, 0.0) for e in sides]:
+            ray = point - cam
+            dist = float(np.linalg.norm(ray))
+            hit = mujoco.mj_ray(self.model, data, cam, ray / dist, _SHOWN_GROUPS, 1, -1, gid)
+            if hit < 0 or hit >= dist - margin - 1e-4:
+                return False
+        return True
+
+    def _paint_hidden(self, image: NDArray[np.uint8]) -> None:
+        """Paint each hidden marker's halo (alpha 0.3) and core (alpha 0.7) over ``image``."""
+        h, w = image.shape[:2]
+        for u, v, r, rgb in self._hidden:
+            c0, c1 = max(0, int(u - 2 * r) - 1), min(w, int(u + 2 * r) + 2)
+            r0, r1 = max(0, int(v - 2 * r) - 1), min(h, int(v + 2 * r) + 2)
+            if c0 >= c1 or r0 >= r1:
+                continue
+            rows, cols = np.mgrid[r0:r1, c0:c1]
+            dd = (cols + 0.5 - u) ** 2 + (rows + 0.5 - v) ** 2
+            patch = image[r0:r1, c0:c1].astype(np.float32)
+            colour = 255.0 * np.asarray(rgb, dtype=np.float32)
+            for mask, alpha in ((dd <= 4 * r * r, 0.3), (dd <= r * r, 0.7)):
+                patch[mask] = (1 - alpha) * patch[mask] + alpha * colour
+            image[r0:r1, c0:c1] = np.clip(patch + 0.5, 0, 255).astype(np.uint8)
+        self._hidden = []
 
     def _effector_xpos(self, data: mujoco.MjData, name: str) -> np.ndarray:
         """Where the end effector ``name`` is: a site, else a body of that name."""
@@ -279,8 +404,11 @@ class FrameRenderer:
         """
         r = self.renderer
         r.update_scene(data, camera=self.camera_id)
+        self._hidden = []
         self.decorate(r.scene, data, record, quats)
-        return r.render()
+        image = r.render()
+        self._paint_hidden(image)
+        return image
 
 
 # ----------------------------------------------------------------------------- film

@@ -3,7 +3,12 @@
 beside the metrics and the trajectory recorder as frame sinks (drawing each frame into
 the video, the stills and the GIF), then writes every output of the ``render`` command
 atomically. :func:`replay_trajectory` films a recorded trajectory the same way, its
-frames read by a :class:`~humanoid_ik.run.replay.TrajectoryPlayer` instead of solved."""
+frames read by a :class:`~humanoid_ik.run.replay.TrajectoryPlayer` instead of solved.
+
+A model filmed in the default stage (``outputs/stage.py``) is solved first and filmed
+after: the stage's cameras frame the whole run (every frame's pose, targets and
+effectors), which is known once it has run, so the run's trajectory is then played to
+the film (:func:`~humanoid_ik.outputs.stage.trajectory_stage`)."""
 
 from __future__ import annotations
 
@@ -27,11 +32,17 @@ from humanoid_ik.outputs.record import (
     write_metrics,
 )
 from humanoid_ik.outputs.render.backend import Backend, select_backend
-from humanoid_ik.outputs.render.drawing import Film, FrameRenderer, Quats, track_quats
+from humanoid_ik.outputs.render.drawing import (
+    Film,
+    FrameRenderer,
+    Quats,
+    marker_radius,
+    track_quats,
+)
 from humanoid_ik.outputs.render.plots import plot_metrics
 from humanoid_ik.outputs.render.stills import GifFrames, Stills, sheet_indices, snapshot_plan
 from humanoid_ik.outputs.render.video import VideoWriter
-from humanoid_ik.outputs.stage import staged_model
+from humanoid_ik.outputs.stage import trajectory_chains, trajectory_stage
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.recording import Recording
 from humanoid_ik.run.replay import TrajectoryPlayer
@@ -126,11 +137,11 @@ def _film(
     video: bool,
     quats: Quats,
     run: Callable[[FrameSink], object],
-    staged: bool = False,
+    marker: float,
 ) -> tuple[_Filmed, Backend]:
     """Film ``n`` frames at ``fps``: ``run(film)`` runs the frame loop with the film as a
-    sink; then the video is finished and the stills and the GIF written. ``staged``:
-    ``model`` is a staged copy of the run's (see :class:`Film`).
+    sink; then the video is finished and the stills and the GIF written. ``marker``:
+    the target markers' radius [m] (:func:`marker_radius`).
 
     A failed run leaves no video under its final name (its temporary file is removed)
     and the exception propagates; Ctrl-C (handled by the frame loop) keeps the frames so
@@ -139,12 +150,13 @@ def _film(
     snaps, notes = snapshot_plan(rs.snapshots, fps, n)
     stills = Stills(snaps, sheet_indices(rs.contact_sheet, n))
     gif = GifFrames(fps) if rs.gif else None
-    with FrameRenderer(model, rs.width, rs.height, rs.camera, round(rs.trail * fps)) as fr:
+    trail = round(rs.trail * fps)
+    with FrameRenderer(model, rs.width, rs.height, rs.camera, trail, marker) as fr:
         backend = select_backend()
         writer = VideoWriter(folder / f"{name}.mp4", rs.width, rs.height, fps) if video else None
         images = [sink for sink in (writer, stills, gif) if sink is not None]
         try:
-            run(Film(fr, quats, images, staged))
+            run(Film(fr, quats, images))
         except BaseException:  # a failed run leaves no video under the final name
             if writer is not None:
                 writer.close(abort=True)
@@ -175,6 +187,11 @@ def render_scene(
     previous ones untouched. Ctrl-C (or SIGTERM) stops the run early and the outputs
     are written for the frames rendered so far (``interrupted`` is then set).
 
+    A model without its own stage is solved first and filmed after, in the default
+    stage framing the whole run (:func:`~humanoid_ik.outputs.stage.trajectory_stage`):
+    ``progress`` then counts the frames filmed; Ctrl-C while solving films the frames
+    solved, and while filming keeps the metrics of every frame solved.
+
     Args:
         scene: the scene (apply command-line choices with :meth:`Scene.with_overrides`).
         out_dir: the output folder.
@@ -191,37 +208,63 @@ def render_scene(
     t_start = time.perf_counter()
     folder = check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
     runner = SceneRunner(scene)
-    n = runner.n_frames
-    done: list[Recording] = []
-
-    def run(film: FrameSink) -> None:
-        done.append(runner.run(on_frame=progress_reporter(progress, n), sinks=[film]))
+    n, rs = runner.n_frames, scene.render
+    reaching = [c for c, e in zip(runner.chains, scene.effectors, strict=True) if e.task == "reach"]
+    marker = marker_radius(reaching)
 
     with staged_outputs(folder) as stage:
-        staged = needs_stage(runner.model)  # the solvers run on the model as it is
-        film_model = staged_model(scene.model, scene.target_points()) if staged else runner.model
-        filmed, backend = _film(
-            film_model,
-            scene.render,
-            scene.fps,
-            n,
-            stage,
-            scene.name,
-            video,
-            track_quats(runner.targets),
-            run,
-            staged,
-        )
-        metrics = done[0]
+        recorded: Trajectory | None = None
+        if needs_stage(runner.model):  # solved first, then filmed in a stage framing the run
+            metrics = runner.run()  # the progress shown is the film's, the longer part
+            recorded = metrics.trajectory()
+            aspect = rs.width / rs.height
+            film_model = trajectory_stage(
+                scene.model, recorded, aspect, runner.model, packages=scene.packages
+            )
+            player = TrajectoryPlayer(recorded, film_model)
+            report = progress_reporter(progress, len(metrics))
+            loops: list[tuple[list[float], bool]] = []
+            filmed, backend = _film(
+                film_model,
+                rs,
+                scene.fps,
+                len(metrics),
+                stage,
+                scene.name,
+                video,
+                lambda record: recorded.quats(record.index),
+                lambda film: loops.append(player.run([film], report)),
+                marker,
+            )
+            film_times, cut = loops[0]
+            frame_times = [a + b for a, b in zip(metrics.frame_times, film_times, strict=False)]
+        else:
+            done: list[Recording] = []
+            filmed, backend = _film(
+                runner.model,
+                rs,
+                scene.fps,
+                n,
+                stage,
+                scene.name,
+                video,
+                track_quats(runner.targets),
+                lambda film: done.append(
+                    runner.run(on_frame=progress_reporter(progress, n), sinks=[film])
+                ),
+                marker,
+            )
+            metrics, cut = done[0], False
+            frame_times = list(metrics.frame_times)
         csv_path, json_path = write_metrics(metrics, stage)
         plot_path = plot_metrics(metrics, stage / "metrics.png") if plot and len(metrics) else None
         traj_files: tuple[Path, ...] = ()
         if trajectory:
-            traj_files = write_trajectory(metrics.trajectory(), stage)
+            traj_files = write_trajectory(recorded or metrics.trajectory(), stage)
         result = RenderOutputs(
             folder=stage,
-            frames=len(metrics),
-            interrupted=metrics.interrupted,
+            frames=len(frame_times),
+            interrupted=metrics.interrupted or cut,
             video=filmed.video,
             gif=filmed.gif,
             snapshots=filmed.snapshots,
@@ -230,7 +273,7 @@ def render_scene(
             json=json_path,
             plot=plot_path,
             backend=backend,
-            frame_times=tuple(metrics.frame_times),
+            frame_times=tuple(frame_times),
             total_time=0.0,
             metrics=metrics,
             trajectory=traj_files,
@@ -290,6 +333,7 @@ def replay_trajectory(
             video,
             lambda record: trajectory.quats(record.index),
             run,
+            marker_radius(trajectory_chains(model, trajectory, task="reach")),
         )
         times, interrupted = done[0]
         result = FilmOutputs(

@@ -34,6 +34,7 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
 
 __all__ = [
     "KINDS",
+    "MAX_WRIST",
     "Shell",
     "Limb",
     "LimbContext",
@@ -44,6 +45,7 @@ __all__ = [
     "place",
     "inside",
     "read_structure",
+    "wrist_problem",
 ]
 
 KINDS = {1: "planar", 2: "two_hinge", 3: "three_hinge"}
@@ -94,7 +96,8 @@ def read_structure(chain: Chain) -> tuple[int, str | None]:
     meeting at a point (joint 2 the elbow); one hinge parallel to joint 1's axis and
     apart from it (a planar arm, joint 1 the elbow). The elbow axis must not pass
     through the shoulder point (for a planar arm: must not coincide with its axis), or
-    the elbow cannot change the shoulder-to-hand distance.
+    the elbow cannot change the shoulder-to-hand distance. The joints after the elbow
+    must be a wrist (:func:`wrist_problem`).
     """
     n = chain.n
     if n < 2:
@@ -113,18 +116,66 @@ def read_structure(chain: Chain) -> tuple[int, str | None]:
             return 0, "two_link needs shoulder axes whose neighbours are not parallel"
         if _off_line(S, anchors[k], axes[k]) < _ON_AXIS:
             return 0, "two_link needs an elbow axis that does not pass through the shoulder"
-        return k, None
+        return _with_wrist(chain, anchors, axes, k)
     if abs(float(axes[0] @ axes[1])) > 1.0 - _PARALLEL:
         if _off_line(anchors[0], anchors[1], axes[1]) < _ON_AXIS:
             return 0, (
                 "two_link needs an elbow axis that does not pass through the shoulder "
                 "(here it lies on the shoulder's axis)"
             )
-        return 1, None
+        return _with_wrist(chain, anchors, axes, 1)
     return 0, (
         "two_link needs shoulder hinge axes that meet at one point (2 or 3 hinges) or a "
         "shoulder hinge parallel to the elbow's (a planar arm)"
     )
+
+
+def _with_wrist(chain: Chain, anchors: NDArray, axes: NDArray, k: int) -> tuple[int, str | None]:
+    """``(k, None)`` when the joints after the elbow ``k`` are a wrist, else ``(0, why)``."""
+    why = wrist_problem(chain, anchors, axes, k)
+    return (0, why) if why is not None else (k, None)
+
+
+MAX_WRIST = 3
+"""The most hinges a wrist has."""
+
+
+def wrist_problem(chain: Chain, anchors: NDArray, axes: NDArray, k: int) -> str | None:
+    """Why the joints after the elbow (joint ``k``) are not a wrist, or ``None``.
+
+    ``two_link`` places the end effector with the shoulder and the elbow and holds the
+    joints after the elbow at their start values. That misses few targets the chain
+    reaches only when those joints are a wrist: at most :data:`MAX_WRIST` hinges whose
+    axes meet at one point ``W`` (one hinge: any point of its axis). The elbow carries
+    ``W`` whatever the wrist does, and the wrist moves the end effector by at most its
+    distance from ``W`` (0 for a hand at ``W``: the chain's whole workspace is reached;
+    0.08 m for the humanoid's palm: 1.8 % of random targets are missed). Anything else
+    after the elbow (a second arm segment, an offset wrist, the arm itself when the
+    shoulder found is a torso's) moves the hand far: such a chain is refused.
+
+    Args:
+        chain: the chain.
+        anchors, axes: its joints' world anchors and unit axes ``(n, 3)`` at zero.
+        k: the elbow's index.
+    """
+    rest = list(range(k + 1, chain.n))
+    if not rest:
+        return None
+    names = chain.joint_names
+    after = f"the {len(rest)} joint(s) after the elbow '{names[k]}'"
+    fix = (
+        "; two_link holds them at their start values and would miss targets they reach "
+        "(choose the arm's shoulder, elbow and wrist with --joints / joints=)"
+    )
+    if len(rest) > MAX_WRIST:
+        return f"two_link needs a wrist of at most {MAX_WRIST} hinges after the elbow; {after}{fix}"
+    if len(rest) > 1 and axes_meeting_point(anchors[rest], axes[rest]) is None:
+        listed = ", ".join(f"'{names[i]}'" for i in rest)
+        return (
+            f"two_link needs the joints after the elbow to be a wrist, their axes meeting at "
+            f"one point; those of {listed} (after the elbow '{names[k]}') do not{fix}"
+        )
+    return None
 
 
 # ------------------------------------------------------------------------------ the hand

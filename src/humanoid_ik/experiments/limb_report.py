@@ -1,0 +1,88 @@
+"""The limbs part of ``inspect``: each limb found (``core/limbs.py``) with its joints,
+its end frame, and which solver ``auto`` runs on it for pose targets and why."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+
+from humanoid_ik.core.limbs import Profile, limb_chain
+from humanoid_ik.errors import HumanoidIKError
+from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+from humanoid_ik.solvers.analytic.two_link import TwoLink
+from humanoid_ik.solvers.auto import Auto
+
+__all__ = ["LimbInfo", "limb_infos", "limb_lines"]
+
+
+@dataclass(frozen=True)
+class LimbInfo:
+    """One limb as ``inspect`` reports it.
+
+    Attributes:
+        name: the limb's name (``left_arm``, ``head`` ...).
+        joints: its joints, root first (empty: fixed).
+        end: the end frame, ``"site NAME"`` or ``"body NAME"`` (``""`` for the torso and
+            legs).
+        auto: the solver ``auto`` runs first on the limb for pose targets (``""`` where
+            the limb is not reached with).
+        exact: per exact solver (``closed_form``, ``two_link``), ``None`` where it
+            applies, else why not.
+        source: how it was found (``names``, ``geometry``, ``tree``, ``profile``).
+    """
+
+    name: str
+    joints: tuple[str, ...]
+    end: str
+    auto: str
+    exact: dict[str, str | None]
+    source: str
+
+
+def limb_infos(model: mujoco.MjModel, profile: Profile) -> tuple[LimbInfo, ...]:
+    """What ``inspect`` says of each limb of ``profile`` on ``model``."""
+    out = []
+    auto = Auto()
+    for limb in profile.limbs.values():
+        end = f"{limb.frame} {limb.frame_name}" if limb.frame else ""
+        chosen, exact = "", dict[str, str | None]()
+        if limb.frame and limb.joints and limb.name != "head":
+            try:
+                chain = limb_chain(model, limb.name, profile=profile)
+            except HumanoidIKError as exc:
+                exact = {"chain": str(exc)}
+            else:
+                chosen = auto.choice(chain, True).name
+                exact = {
+                    "closed_form": ClosedForm().applicable(chain, True),
+                    "two_link": TwoLink().applicable(chain, False),
+                }
+        out.append(LimbInfo(limb.name, limb.joints, end, chosen, exact, limb.source))
+    return tuple(out)
+
+
+def limb_lines(limbs: tuple[LimbInfo, ...], notes: tuple[str, ...] = ()) -> list[str]:
+    """The limbs section of the text report."""
+    if not limbs:
+        return ["limbs: none found (docs/limbs.md: name them in a <model>.limbs.toml)"]
+    out = [f"limbs ({len(limbs)}; --arm left|right, --limb NAME; docs/limbs.md):"]
+    width = max(len(lb.name) for lb in limbs)
+    for lb in limbs:
+        joints = (
+            "fixed"
+            if not lb.joints
+            else f"{len(lb.joints)} joint(s) {lb.joints[0]} .. {lb.joints[-1]}"
+            if len(lb.joints) > 2
+            else f"{len(lb.joints)} joint(s) " + ", ".join(lb.joints)
+        )
+        end = f" -> {lb.end}" if lb.end else ""
+        out.append(f"  {lb.name:<{width}}  {joints}{end}")
+        if lb.auto:
+            out.append(f"  {'':<{width}}  pose targets: auto runs {lb.auto}")
+            for solver, why in lb.exact.items():
+                task = "pose" if solver == "closed_form" else "position"
+                state = f"applies (exact, {task} targets)" if why is None else f"no: {why}"
+                out.append(f"  {'':<{width}}  {solver}: {state}")
+    out += [f"  note: {n}" for n in notes]
+    return out
