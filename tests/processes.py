@@ -65,6 +65,14 @@ def signal_when(
     return True
 
 
+def importing(proc: subprocess.Popen) -> bool:
+    """Whether ``proc``'s interpreter is past its own start and into the command line's
+    imports: numpy's compiled core is loaded (``/proc/PID/maps``), which only the
+    commands import. A Ctrl-C before that meets the interpreter's start-up, not the
+    program (on a busy machine, a fixed delay after the start may still be there)."""
+    return b"_multiarray_umath" in Path(f"/proc/{proc.pid}/maps").read_bytes()
+
+
 def handles(proc: subprocess.Popen, sig: int) -> bool:
     """Whether ``proc`` has installed a handler for ``sig`` yet (``SigCgt`` of
     ``/proc/PID/status``): the command line is up, still importing what it runs."""
@@ -124,6 +132,26 @@ def none_left(tag: str, within: float = 10.0) -> list[int]:
     for pid in alive:
         os.kill(pid, signal.SIGKILL)
     return alive
+
+
+def ended(proc: subprocess.Popen, tag: str, within: float) -> tuple[bytes, bytes]:
+    """``proc.communicate()`` (stdout, stderr) once the run has ended, at most ``within``
+    seconds from now; a run still going then is killed, with every process of its
+    non-empty ``tag``, so that a hang fails its test and leaves nothing behind.
+
+    Raises:
+        AssertionError: the run did not end within ``within`` seconds.
+    """
+    try:
+        return proc.communicate(timeout=within)
+    except subprocess.TimeoutExpired:
+        left = none_left(tag, within=0.0) if tag else []
+        proc.kill()
+        proc.communicate()
+        command = " ".join(map(str, list(proc.args)[3:]))
+        raise AssertionError(
+            f"{command!r} still ran {within} s later ({len(left)} process(es) killed)"
+        ) from None
 
 
 def temporaries(folder: Path) -> list[str]:

@@ -328,3 +328,34 @@ def test_cli_inspect_names_the_limbs_and_saves_a_profile(tmp_path):
         "solve", "--model", talos, "--arm", "left", "--limbs", str(saved), "--target", "0.1,0.3,0"
     )
     assert "arm_left_7_joint" in solved.stdout
+
+
+def test_bench_render_and_replay_on_g1(tmp_path):
+    """A real robot through bench (its left arm), a tiny render of a scene file and the
+    replay of its trajectory: the same frame count, every frame written."""
+    g1 = str(robot_file("g1"))
+    bench = _cli("bench", "--model", g1, "--arm", "left", "--solvers", "lm", "--n", "20")
+    assert bench.returncode == 0, bench.stderr
+    assert "lm" in bench.stdout and "100.0" in bench.stdout
+    scene = tmp_path / "g1.toml"
+    scene.write_text(
+        f'name = "g1_circle"\nmodel = "{g1}"\nduration = 1.0\nfps = 3\n'
+        '[[targets]]\nname = "ball"\nmotion = { kind = "circle", center = [0.30, 0.12, 0.02], '
+        "radius = 0.04, normal = [1, 0, 0], period = 1.0 }\n"
+        '[[effectors]]\nbody = "left_rubber_hand"\ntarget = "ball"\n'
+        + "joints = ["
+        + ", ".join(f'"{j}"' for j in g1_arm("left"))
+        + "]\n"
+    )
+    out = tmp_path / "render"
+    run = _cli("render", str(scene), "--width", "64", "--height", "48", "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    frames = sorted(out.glob("frame_*.png"))
+    assert len(frames) == 3
+    again = tmp_path / "replay"
+    replay = _cli(
+        "replay", str(out / "trajectory.npz"), "--width", "64", "--height", "48",
+        "--out", str(again),
+    )  # fmt: skip
+    assert replay.returncode == 0, replay.stderr
+    assert len(sorted(again.glob("frame_*.png"))) == 3

@@ -18,7 +18,17 @@ import pytest
 from humanoid_ik.outputs.atomic import MANIFEST, publish, published, staged_outputs
 from humanoid_ik.outputs.render.video import mp4_complete
 from humanoid_ik.outputs.trajectory import load_trajectory
-from tests.processes import handles, none_left, run_cli, signal_when, start, tagged, temporaries
+from tests.processes import (
+    ended,
+    handles,
+    importing,
+    none_left,
+    run_cli,
+    signal_when,
+    start,
+    tagged,
+    temporaries,
+)
 
 SMALL = ["--width", "64", "--height", "48"]
 
@@ -131,7 +141,7 @@ def test_ctrl_c_during_a_render_publishes_the_frames_done(tmp_path):
     proc = start(["render", "showcase", "--frames", "1500", *SMALL, "--out", str(out)], tag)
     recording = {**_render_moment("recording", out, proc, tag), "after": 2.0}
     assert signal_when(proc, signal.SIGTERM, **recording)  # some frames are done
-    _o, err = proc.communicate(timeout=120)
+    _o, err = ended(proc, tag, 120)
     assert proc.returncode == 143, err.decode()
     names = _check_one_set(out)
     traj = load_trajectory(out / "trajectory.npz")
@@ -160,8 +170,8 @@ RENDER_KILLS = [
     ("finishing", signal.SIGTERM),
     ("finishing", signal.SIGKILL),
 ]
-"""(phase of the render, signal), in this order into one folder: the interpreter
-starting; the command importing (SIGTERM's handler installed); the staging folder made;
+"""(phase of the render, signal), in this order into one folder: importing MuJoCo; the
+command importing on (SIGTERM's handler installed); the staging folder made;
 ffmpeg started; frames being rendered (a second later); the video done, the metrics
 being written."""
 
@@ -170,7 +180,7 @@ def _render_moment(phase: str, out: Path, proc: subprocess.Popen, tag: str) -> d
     """When to signal render ``proc`` (tagged ``tag``) in ``phase``: the ``ready``,
     ``after`` and ``poll`` of :func:`~tests.processes.signal_when`."""
     if phase == "start-up":
-        return {"ready": 0.2}
+        return {"ready": lambda: importing(proc), "poll": 0.001}
     if phase == "imports":
         return {"ready": lambda: handles(proc, signal.SIGTERM), "poll": 0.0005}
     if phase in ("recording", "rendering"):  # a look at every process: not too often
@@ -201,7 +211,7 @@ def test_kills_in_each_phase_of_renders_leave_one_whole_set_or_the_previous(tmp_
         tag = uuid.uuid4().hex
         proc = start(["render", "showcase", "--frames", "20", *SMALL, "--out", str(out)], tag)
         assert signal_when(proc, sig, **_render_moment(phase, out, proc, tag)), (phase, sig)
-        _o, err = proc.communicate(timeout=120)
+        _o, err = ended(proc, tag, 120)
         status = {signal.SIGINT: 130, signal.SIGTERM: 143}.get(sig)
         assert proc.returncode in (0, -sig, status), (phase, sig, err.decode()[-800:])
         assert "Traceback" not in err.decode(), err.decode()[-1500:]

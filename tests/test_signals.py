@@ -24,7 +24,9 @@ from humanoid_ik.outputs.atomic import atomic_dir, atomic_path, remove_stale
 from tests.processes import (
     MESSAGE,
     STATUS,
+    ended,
     handles,
+    importing,
     none_left,
     signal_when,
     start,
@@ -76,7 +78,7 @@ def test_killed_sweep_leaves_no_worker_and_frees_the_callers_pipes(tmp_path, sig
     assert len(tagged(tag)) >= 3  # the sweep, its forkserver and workers
     proc.send_signal(sig)
     # communicate returns only when every holder of the pipes is gone
-    _out, err = proc.communicate(timeout=30)
+    _out, err = ended(proc, tag, 30)
     assert none_left(tag) == []
     if sig == signal.SIGKILL:
         assert proc.returncode == -signal.SIGKILL
@@ -93,7 +95,7 @@ def test_dataset_killed_leaves_temporaries_that_the_next_run_removes(tmp_path):
     proc = start(["dataset", "--n", "1000000", "--chunk", "4096", "--out", str(out)], tag)
     _wait_mid_run(tmp_path)
     proc.kill()
-    proc.communicate(timeout=30)
+    ended(proc, tag, 30)
     assert not out.exists() and temporaries(tmp_path)  # what SIGKILL leaves behind
     done = subprocess.run(
         [sys.executable, "-m", "humanoid_ik", "dataset", "--n", "100", "--out", str(out)],
@@ -109,10 +111,11 @@ def test_dataset_killed_leaves_temporaries_that_the_next_run_removes(tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_dataset_stopped_by_a_signal_removes_itstemporaries(tmp_path, sig):
     out = tmp_path / "pairs.npz"
-    proc = start(["dataset", "--n", "1000000", "--chunk", "4096", "--out", str(out)], "x")
+    tag = uuid.uuid4().hex
+    proc = start(["dataset", "--n", "1000000", "--chunk", "4096", "--out", str(out)], tag)
     _wait_mid_run(tmp_path)
     proc.send_signal(sig)
-    _out, err = proc.communicate(timeout=30)
+    _out, err = ended(proc, tag, 30)
     assert proc.returncode == STATUS[sig]
     assert err.decode().strip().splitlines()[-1] == MESSAGE[sig]
     assert temporaries(tmp_path) == [] and not out.exists()
@@ -167,9 +170,6 @@ n = 50
 DATASET_PAIRS = 100_000
 """Pairs of a killed dataset run: packing them (11 MB) takes 10 ms or more, caught by
 looking every half millisecond."""
-START_UP_S = 0.2
-"""When a signal meant for the start-up lands: the interpreter is importing, before
-the command's handlers are installed."""
 
 
 def _packing(out: Path) -> bool:
@@ -180,7 +180,7 @@ Moment = float | Callable[[subprocess.Popen, Path], bool]
 PHASES: dict[str, Moment] = {
     # the moment of a sweep's run (out: its output folder) or a dataset's (out: the folder
     # of d.npz) at which the signal is sent: a delay, or what the run has done by then
-    "start-up": START_UP_S,
+    "start-up": lambda proc, out: importing(proc),  # MuJoCo, before the command's handlers
     "imports": lambda proc, out: handles(proc, signal.SIGTERM),  # the command importing
     "pool": lambda proc, out: (out / "workers.log").exists(),  # forkserver, workers start
     "jobs": lambda proc, out: any((out / "jobs").glob("*.json")),  # records coming back
@@ -233,7 +233,7 @@ def test_kill_in_each_phase_of_sweeps_and_datasets_leaves_complete_or_nothing(
     moment = PHASES[phase]
     ready = moment if isinstance(moment, float) else lambda: moment(proc, out)
     assert signal_when(proc, sig, ready, poll=0.0005 if phase == "packing" else 0.002)
-    _o, err = proc.communicate(timeout=60)
+    _o, err = ended(proc, tag, 60)
     # ended by the signal itself (before the handlers are installed, or SIGKILL), by its
     # handler (130, 143), or finished first (0)
     statuses = (-sig, 0) if sig == signal.SIGKILL else (STATUS[sig], -sig, 0)
@@ -287,7 +287,7 @@ def test_killed_sweep_on_local_ray_takes_its_ray_processes_along(tmp_path):
         time.sleep(0.2)  # Ray is up and its workers are running jobs
     assert len(tagged(tag)) >= 4  # the sweep, its Ray process, Ray's raylet, GCS, workers
     proc.kill()
-    proc.communicate(timeout=60)
+    ended(proc, tag, 60)
     left = {pid: _command(pid) for pid in tagged(tag)}
     # the Ray process's group (GCS, raylet, agents) goes at once, Ray's workers (in
     # groups of their own) within seconds of their raylet (docs/sweeps.md)
@@ -295,13 +295,14 @@ def test_killed_sweep_on_local_ray_takes_its_ray_processes_along(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("delay", [0.1, 0.2, 0.3, 0.45])
+@pytest.mark.parametrize("delay", [0.0, 0.1, 0.2, 0.35])
 def test_ctrl_c_during_start_up_is_one_line_and_130(tmp_path, delay):
-    """SIGINT while the command line is still importing MuJoCo and the commands."""
-    proc = start(["scenes"], "x")
-    time.sleep(delay)
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
+    """SIGINT while the command line is still importing MuJoCo and the commands (``delay``
+    seconds after their imports began)."""
+    tag = uuid.uuid4().hex
+    proc = start(["scenes"], tag)
+    signal_when(proc, signal.SIGINT, lambda: importing(proc), after=delay, poll=0.001)
+    out, err = ended(proc, tag, 60)
     text = err.decode()
     assert "Traceback" not in text, text
     # 130 with the one line; 0 when the listing finished first; or ended by SIGINT's
