@@ -239,19 +239,40 @@ def _pack(folder: Path, path: Path, n: int, n_joints: int, meta: dict[str, Any])
     bytes)."""
     shapes = {"positions": (n, 3), "quats": (n, 4), "q": (n, n_joints), "closed_form_ok": (n,)}
     dtypes = {"closed_form_ok": np.dtype(np.bool_)}
-    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
-        for key in _ARRAYS:
-            header = {
-                "descr": np.lib.format.dtype_to_descr(dtypes.get(key, np.dtype("<f8"))),
-                "fortran_order": False,
-                "shape": shapes[key],
-            }
-            with zf.open(_info(f"{key}.npy"), "w", force_zip64=True) as fh:
-                np.lib.format.write_array_header_2_0(fh, header)
-                with open(folder / f"{key}.raw", "rb") as raw:
-                    shutil.copyfileobj(raw, fh, 1 << 20)
-        with zf.open(_info("meta.npy"), "w") as fh:
-            np.lib.format.write_array(fh, np.array(json.dumps(meta, sort_keys=True)))
+    zf = zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True)
+    try:
+        _pack_into(zf, folder, shapes, dtypes, meta)
+        zf.close()
+    except BaseException:
+        # a signal mid-member: the file is abandoned (the caller removes it); drop it
+        # without ZipFile's close, which refuses an open member and, from __del__,
+        # would print a traceback after the one line of a Ctrl-C
+        fp, zf.fp = zf.fp, None
+        if fp is not None:
+            fp.close()
+        raise
+
+
+def _pack_into(
+    zf: zipfile.ZipFile,
+    folder: Path,
+    shapes: dict[str, tuple[int, ...]],
+    dtypes: dict[str, np.dtype],
+    meta: dict[str, Any],
+) -> None:
+    """Write the members of :func:`_pack` into ``zf``."""
+    for key in _ARRAYS:
+        header = {
+            "descr": np.lib.format.dtype_to_descr(dtypes.get(key, np.dtype("<f8"))),
+            "fortran_order": False,
+            "shape": shapes[key],
+        }
+        with zf.open(_info(f"{key}.npy"), "w", force_zip64=True) as fh:
+            np.lib.format.write_array_header_2_0(fh, header)
+            with open(folder / f"{key}.raw", "rb") as raw:
+                shutil.copyfileobj(raw, fh, 1 << 20)
+    with zf.open(_info("meta.npy"), "w") as fh:
+        np.lib.format.write_array(fh, np.array(json.dumps(meta, sort_keys=True)))
 
 
 def _info(name: str) -> zipfile.ZipInfo:
