@@ -351,3 +351,41 @@ def test_ctrl_c_that_ctypes_wrapped_counts_as_ctrl_c():
     with pytest.raises(ctypes.ArgumentError) as wrong:
         libc.abs(object())
     assert not interrupted(wrong.value)
+
+
+FINALISER_SIGNAL = """
+import os, signal, sys, time
+from humanoid_ik.cli import app
+
+class Finaliser:
+    def __del__(self):  # the signal's handler runs in here, where Python cannot raise
+        os.kill(os.getpid(), {sig})
+        for _ in range(200_000):
+            pass
+
+def build_parser():
+    Finaliser()  # dropped at once: its finaliser runs now
+    time.sleep(5)  # the signal delivered again lands here
+    raise SystemExit("the signal was lost")
+
+app.build_parser = build_parser
+sys.exit(app.main(["scenes"]))
+"""
+
+
+@pytest.mark.parametrize(
+    ("sig", "status", "word"),
+    [("signal.SIGTERM", 143, "terminated"), ("signal.SIGINT", 130, "interrupted")],
+)
+def test_a_signal_that_lands_in_a_finaliser_still_stops_the_command(sig, status, word):
+    """A SIGTERM or Ctrl-C whose exception Python cannot raise (a finaliser; the import
+    system's module-lock callback) is neither printed as ``Exception ignored`` nor lost:
+    the command stops with the one line and its status."""
+    done = subprocess.run(
+        [sys.executable, "-c", FINALISER_SIGNAL.format(sig=sig)],
+        capture_output=True,
+        timeout=60,
+    )
+    err = done.stderr.decode()
+    assert done.returncode == status, err
+    assert err.strip() == f"humanoid-ik: {word}", err

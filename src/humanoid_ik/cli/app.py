@@ -9,6 +9,7 @@ of the output went away (``humanoid-ik scenes | head -1``: no message).
 
 from __future__ import annotations
 
+import _thread
 import argparse
 import os
 import signal
@@ -128,12 +129,43 @@ def _show_notes() -> Any:
     return show
 
 
+REDELIVERY_DELAY = 0.01
+"""[s] after which an interrupt Python could not raise is delivered again: long enough
+for the unraisable hook to have returned, so it is raised in the program's own code."""
+
+
+def _interrupts_delivered_again() -> Any:
+    """A ``sys.unraisablehook`` for a Ctrl-C or SIGTERM that landed where Python cannot
+    raise it (a finaliser, the import system's module-lock callback): Python would print
+    ``Exception ignored in ...`` and go on as if no signal had come. This one prints
+    nothing and delivers the signal again a moment later, from a timer thread, so that it
+    is raised in the main thread's code and stops the command as a signal should."""
+    shown = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        exc = unraisable.exc_value
+        if not isinstance(exc, KeyboardInterrupt):
+            shown(unraisable)
+            return
+        signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
+        again = threading.Timer(REDELIVERY_DELAY, _thread.interrupt_main, (signum,))
+        again.daemon = True
+        again.start()
+
+    return hook
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
-    with warnings.catch_warnings():
-        warnings.showwarning = _show_notes()
-        warnings.simplefilter("default", ModelWarning)  # each note once
-        return _main(argv)
+    unraisable = sys.unraisablehook
+    sys.unraisablehook = _interrupts_delivered_again()
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_notes()
+            warnings.simplefilter("default", ModelWarning)  # each note once
+            return _main(argv)
+    finally:
+        sys.unraisablehook = unraisable
 
 
 def _main(argv: Sequence[str] | None) -> int:

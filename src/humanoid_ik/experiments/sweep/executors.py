@@ -30,7 +30,7 @@ import sys
 import tempfile
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from multiprocessing.connection import Connection
 from typing import IO, Any
@@ -129,8 +129,10 @@ def run_local(
         with ProcessPoolExecutor(
             max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(watched,)
         ) as pool:
-            pending = {pool.submit(run_job, job): job for job in jobs}
+            pending: dict[Future[dict[str, Any]], Job] = {}
             try:
+                for job in jobs:
+                    pending[pool.submit(run_job, job)] = job
                 while pending:
                     done, _ = wait(pending, return_when=FIRST_COMPLETED)
                     for fut in done:
@@ -140,9 +142,10 @@ def run_local(
                         except Exception as exc:  # noqa: BLE001 - a dead worker
                             rec = failed_record(job, exc)
                         on_done(job, rec)
-            except BaseException:
+            except BaseException:  # Ctrl-C, even while the jobs are being submitted
                 for fut in pending:
                     fut.cancel()
+                alive.close()  # the workers end now: the pool's shutdown waits for none
                 raise
     finally:  # after the pool's shutdown: its workers have exited
         alive.close()
