@@ -404,6 +404,25 @@ def test_keyframes_load_into_the_model(showcase, tmp_path):
         )
 
 
+def test_keyframes_are_well_formed_xml_whatever_the_names(showcase, tmp_path):
+    """A scene name or model path holding ``--`` (valid in scene names), ``&`` or ``<``
+    still gives a document a strict XML parser reads, with the names intact."""
+    import dataclasses
+    import xml.parsers.expat
+
+    traj = dataclasses.replace(
+        load_trajectory(showcase), scene="a--b&<c>-", model_file="/x--y/m.xml"
+    )
+    text = keyframes_xml(traj, every=60)
+    parser = xml.parsers.expat.ParserCreate()
+    comments: list[str] = []
+    parser.CommentHandler = comments.append
+    parser.Parse(text, True)  # raises on anything not well-formed
+    assert "a- -b&<c>-" in comments[0] and "/x- -y/m.xml" in comments[0]
+    names = [k.get("name") for k in ET.fromstring(text).iter("key")]
+    assert names == ["a--b&<c>-_000", "a--b&<c>-_060", "a--b&<c>-_120"]
+
+
 def test_keyframes_every_must_be_positive(showcase):
     """`every` below 1 is refused in one line."""
     with pytest.raises(TrajectoryFileError, match="every: expected an integer >= 1, got 0"):

@@ -68,6 +68,27 @@ def test_metadata_names_model_site_joints_and_seed(tmp_path):
 
 
 @pytest.mark.parametrize(
+    ("where", "kind", "name"),
+    [
+        (["--body", "right_hand_link"], "body", "right_hand_link"),
+        (["--arm", "left"], "site", "left_palm_site"),
+    ],
+)
+def test_the_command_lines_end_effector_is_the_datasets(tmp_path, capsys, where, kind, name):
+    """``dataset --body`` and ``--arm`` make the pairs of the chain they name (FK of each
+    solution of that end effector is its target), and the metadata says which."""
+    out = tmp_path / "d.npz"
+    assert main(["dataset", "--n", "40", "--out", str(out), *where]) == 0
+    capsys.readouterr()
+    data = read_dataset(out)
+    chain = Chain(**{kind: name})
+    assert data.meta[kind] == name and data.meta["joints"] == list(chain.joint_names)
+    assert "site" not in data.meta if kind == "body" else "body" not in data.meta
+    for q, p in zip(data.q, data.positions, strict=True):
+        assert np.abs(chain.fk(q)[0] - p).max() < 1e-9
+
+
+@pytest.mark.parametrize(
     ("kwargs", "message"),
     [
         ({"n": 0}, "n must be an integer >= 1 and <= 100000000, got 0"),

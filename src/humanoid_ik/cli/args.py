@@ -14,6 +14,7 @@ from humanoid_ik.core.limbs import LIMB_NAMES, limb_chain, profile_for
 from humanoid_ik.core.models import load_model
 from humanoid_ik.core.robot_files import package_item, package_problem
 from humanoid_ik.errors import HumanoidIKError
+from humanoid_ik.outputs.atomic import output_file
 
 __all__ = [
     "Parser",
@@ -268,6 +269,7 @@ def check_writable(path: Path) -> None:
     no temporary file is left)."""
     if path.is_dir():
         raise UsageError(f"cannot write '{path}': it is a folder; expected a file path")
+    path = output_file(path)  # a link written through; a device or FIFO refused
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise UsageError(f"cannot write '{path}': folder '{parent}' does not exist")

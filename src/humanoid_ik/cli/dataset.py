@@ -1,5 +1,6 @@
 """``humanoid-ik dataset --n N --out FILE [--seed S] [--chunk C] [--model PATH]
-[--site NAME] [--joints a,b]``: write (target pose, joint solution) pairs."""
+[--site NAME | --body NAME | --arm SIDE | --limb NAME] [--joints a,b]``: write (target
+pose, joint solution) pairs."""
 
 from __future__ import annotations
 
@@ -11,12 +12,11 @@ from typing import Any
 from humanoid_ik.cli.args import (
     UsageError,
     add_chain_args,
+    chain_from_args,
     check_writable,
     int_at_least,
     int_in,
-    names,
     nonempty_path,
-    package_paths,
 )
 from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.experiments.dataset import MAX_CHUNK, MAX_PAIRS, write_dataset
@@ -29,6 +29,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     if out.suffix != ".npz":
         raise UsageError(f"--out '{out}' must end in .npz")
     check_writable(out)
+    chain = chain_from_args(args)  # --site, --body, --arm or --limb, with --joints
     bar = progress_bar(args.n, "pair", out.name)
 
     def progress(done: int, total: int) -> None:
@@ -43,10 +44,8 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
             args.seed,
             chunk=args.chunk,
             model=args.model,
-            site=args.site,
-            joints=names(args.joints),
             progress=progress,
-            packages=package_paths(args),
+            chain=chain,
         )
     finally:
         if bar is not None:

@@ -20,7 +20,7 @@ member             shape       meaning
 ``quats``          ``(N, 4)``  target orientations, unit wxyz with ``w >= 0``
 ``q``              ``(N, n)``  joint solutions [rad], in ``meta["joints"]`` order
 ``closed_form_ok`` ``(N,)``    True where ``q`` comes from the closed form
-``meta``           ``()``      JSON text: format, model, site, joints, seed, n, block, ...
+``meta``           ``()``      JSON text: format, model, site (or body), joints, seed, n, ...
 =================  ==========  ==========================================================
 
 Chunks are written as they are made into raw files beside the output and packed into the
@@ -49,7 +49,7 @@ from humanoid_ik.core.models import display_model, load_model
 from humanoid_ik.core.robot_files import PackagePaths
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.errors import DatasetError, HumanoidIKError
-from humanoid_ik.outputs.atomic import atomic_dir, atomic_path
+from humanoid_ik.outputs.atomic import atomic_dir, atomic_path, output_file
 
 __all__ = [
     "BLOCK",
@@ -86,7 +86,8 @@ class Dataset(NamedTuple):
     closed_form_ok: NDArray[np.bool_]
     """``(N,)``: True where the closed form gave the solution."""
     meta: dict[str, Any]
-    """Format, model, site, joint names, seed, n, block and solver."""
+    """Format, model, the end effector's name under ``site`` or ``body``, joint names,
+    seed, n, block and solver."""
 
 
 def make_block(
@@ -126,6 +127,7 @@ def write_dataset(
     joints: list[str] | None = None,
     progress: Callable[[int, int], None] | None = None,
     packages: PackagePaths | None = None,
+    chain: Chain | None = None,
 ) -> Path:
     """Write ``n`` (target pose, joint solution) pairs to ``path`` (``.npz``).
 
@@ -139,6 +141,9 @@ def write_dataset(
         joints: the chain's joints (default: the hinges from the site to the root).
         progress: called ``(done, n)`` after each chunk.
         packages: ROS package folders of a URDF's ``package://`` paths.
+        chain: the chain itself (a body's, a limb's: what the command line's ``--body``,
+            ``--arm`` and ``--limb`` name), instead of ``site`` and ``joints``; ``model``
+            then only names its file in ``meta``.
 
     Returns:
         ``path``.
@@ -159,12 +164,15 @@ def write_dataset(
         if value < low or (high is not None and value > high):
             upper = "" if high is None else f" and <= {high}"
             raise DatasetError(f"{name} must be an integer >= {low}{upper}, got {value!r}")
-    out = Path(path)
+    out = output_file(path)  # a link written through; a device or FIFO refused
     if out.is_dir():
         raise DatasetError(f"cannot write '{out}': it is a folder; expected a .npz file path")
     if not out.parent.is_dir():
         raise DatasetError(f"cannot write '{out}': folder '{out.parent}' does not exist")
-    chain = Chain(load_model(model, packages=packages), site, joints)
+    if chain is None:
+        chain = Chain(load_model(model, packages=packages), site, joints)
+    elif site is not None or joints is not None:
+        raise DatasetError("give a chain or its site and joints, not both")
     reason = ClosedForm().applicable(chain, True)
     if reason is not None:
         raise DatasetError(f"closed_form does not fit chain {chain.ee_name}: {reason}")
@@ -177,7 +185,7 @@ def write_dataset(
     meta = {
         "format": FORMAT,
         "model": display_model(model),
-        "site": chain.ee_name,
+        chain.ee_kind: chain.ee_name,
         "joints": list(chain.joint_names),
         "seed": int(seed),
         "n": int(n),

@@ -20,7 +20,9 @@ Portable: the folder's lock is ``fcntl.flock`` where ``fcntl`` exists (POSIX) an
 
 from __future__ import annotations
 
+import errno
 import json
+import math
 import os
 import re
 import shutil
@@ -37,6 +39,8 @@ __all__ = [
     "MANIFEST",
     "atomic_dir",
     "atomic_path",
+    "json_text",
+    "output_file",
     "pid_alive",
     "publish",
     "published",
@@ -112,17 +116,38 @@ def remove_stale(path: str | os.PathLike) -> list[Path]:
     return removed
 
 
+def output_file(path: str | os.PathLike) -> Path:
+    """The file that writing ``path`` replaces: ``path`` itself, or the file a symbolic
+    link there points to (written through, the link kept).
+
+    Raises:
+        OSError: ``path`` is a device, a FIFO or a socket (``--out /dev/null`` must not
+            replace the system's device with a regular file).
+    """
+    final = Path(path)
+    if final.is_symlink():
+        final = final.resolve()
+    if final.exists() and not final.is_file() and not final.is_dir():
+        raise OSError(
+            errno.EINVAL,
+            "not a regular file (a device, FIFO or socket); give a file path",
+            str(path),
+        )
+    return final
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """A temporary path beside ``path``; renamed onto ``path`` when the block succeeds,
-    removed when it fails, so ``path`` is never half written.
+    removed when it fails, so ``path`` is never half written (:func:`output_file`: a
+    symbolic link is written through; a device, FIFO or socket is refused).
 
     Args:
         path: the final file.
         suffix: the temporary file's extension (default: that of ``path``; some
             writers choose the format from it).
     """
-    final = Path(path)
+    final = output_file(path)
     remove_stale(final)
     tmp = _temporary(final, final.suffix if suffix is None else suffix)
     try:
@@ -154,9 +179,27 @@ def write_text(path: str | os.PathLike, text: str) -> Path:
     return Path(path)
 
 
+def json_text(doc: Any, indent: int | None = 1) -> str:
+    """``doc`` as strict JSON: a NaN or an infinity (an unlimited joint's range margin,
+    a model's NaN) becomes ``null``, as JSON has no such numbers (``json.dumps`` would
+    write ``NaN``/``Infinity``, which strict parsers refuse)."""
+    return json.dumps(_finite(doc), indent=indent, allow_nan=False)
+
+
+def _finite(doc: Any) -> Any:
+    if isinstance(doc, float):  # numpy's float64 too
+        return doc if math.isfinite(doc) else None
+    if isinstance(doc, dict):
+        return {k: _finite(v) for k, v in doc.items()}
+    if isinstance(doc, (list, tuple)):
+        return [_finite(v) for v in doc]
+    return doc
+
+
 def write_json(path: str | os.PathLike, doc: Any, indent: int = 1) -> Path:
-    """Write ``doc`` as JSON (and a final newline) to ``path`` atomically; returns the path."""
-    return write_text(path, json.dumps(doc, indent=indent) + "\n")
+    """Write ``doc`` as strict JSON (:func:`json_text`) and a final newline to ``path``
+    atomically; returns the path."""
+    return write_text(path, json_text(doc, indent) + "\n")
 
 
 def published(folder: str | os.PathLike) -> list[str]:

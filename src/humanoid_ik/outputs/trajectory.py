@@ -23,7 +23,7 @@ from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model
 from humanoid_ik.core.robot_files import PackagePaths
 from humanoid_ik.errors import TrajectoryFileError
-from humanoid_ik.outputs.atomic import atomic_path, write_text
+from humanoid_ik.outputs.atomic import atomic_path, json_text, write_text
 from humanoid_ik.outputs.stage import trajectory_stage
 from humanoid_ik.run.trajectory import (
     TRAJECTORY_FORMAT,
@@ -78,7 +78,7 @@ def _header(traj: Trajectory) -> dict[str, Any]:
 
 def _npz_arrays(traj: Trajectory) -> dict[str, Any]:
     out: dict[str, Any] = {
-        "header": np.array(json.dumps(_header(traj))),
+        "header": np.array(json_text(_header(traj), indent=None)),
         "time": traj.time,
         "qpos": traj.qpos,
         "stage_points": traj.stage_points,
@@ -118,7 +118,7 @@ def trajectory_csv(traj: Trajectory) -> str:
     """The CSV text: the header as JSON on a first ``#`` line, then the column names and
     one row per frame (numbers written in full precision, so reading it back is exact)."""
     buf = io.StringIO()
-    buf.write("# " + json.dumps(_header(traj)) + "\n")
+    buf.write("# " + json_text(_header(traj), indent=None) + "\n")
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(_columns(traj))
     for i in range(traj.n_frames):
