@@ -6,13 +6,16 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import socket
+import uuid
 
 import pytest
 
 from humanoid_ik.cli import main
 from humanoid_ik.experiments.dataset import read_dataset
-from humanoid_ik.outputs.atomic import write_text
+from humanoid_ik.outputs.atomic import MANIFEST, write_text
+from tests.processes import ended, signal_when, start, temporaries
 
 COMMANDS = {
     "dataset": ["dataset", "--n", "5", "--out", "{out}"],
@@ -112,3 +115,61 @@ def test_json_text_writes_non_finite_numbers_as_null():
 
     doc = {"margin": float("inf"), "nan": [float("nan"), 1.5], "q": (-float("inf"),)}
     assert _strict(json_text(doc)) == {"margin": None, "nan": [None, 1.5], "q": [None]}
+
+
+def test_a_run_never_writes_over_the_users_own_files(tmp_path, capsys):
+    """A folder holding the user's ``metrics.csv`` (no earlier run published it): ``run``
+    refuses in one line naming it, writes nothing, and leaves it as it was; files of an
+    earlier run there are replaced as usual."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "metrics.csv").write_text("my numbers\n")
+    assert main(["run", "circle", "--frames", "3", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "no earlier run wrote" in err, err
+    assert str(out / "metrics.csv") in err
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["metrics.csv"]
+    assert (out / "metrics.csv").read_text() == "my numbers\n"
+    (out / "metrics.csv").unlink()
+    assert main(["run", "circle", "--frames", "3", "--out", str(out)]) == 0
+    assert main(["run", "circle", "--frames", "4", "--out", str(out)]) == 0  # its own set
+    capsys.readouterr()
+    assert len((out / "trajectory.csv").read_text().splitlines()) == 1 + 1 + 4
+
+
+def test_a_replay_into_its_own_folder_keeps_its_input(tmp_path, capsys):
+    """``replay DIR/trajectory.npz --out DIR`` would replace the render's set it comes
+    from (the input included): refused in one line, the input kept."""
+    out = tmp_path / "run"
+    assert main(["run", "circle", "--frames", "3", "--out", str(out)]) == 0
+    before = (out / "trajectory.npz").read_bytes()
+    capsys.readouterr()
+    assert main(["replay", str(out / "trajectory.npz"), "--out", str(out), "--no-video"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "choose another --out" in err, err
+    assert (out / "trajectory.npz").read_bytes() == before
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["render", "run"])
+def test_ctrl_c_before_the_first_frame_keeps_the_previous_set(tmp_path, capsys, command):
+    """SIGINT as a re-run starts (its staging folder just made; a render's film is
+    starting): the folder then holds either the previous set, whole, or the new run's
+    with at least one frame, never a set of 0 frames in place of the previous one."""
+    out = tmp_path / "out"
+    assert main(["run", "circle", "--frames", "3", "--out", str(out)]) == 0
+    capsys.readouterr()
+    tag = uuid.uuid4().hex
+    args = [command, "circle", "--out", str(out), "--frames", "30"]
+    proc = start(
+        [*args, *(["--width", "64", "--height", "48"] if command == "render" else [])], tag
+    )
+    staging = lambda: any(p.name.startswith(".run.") for p in out.iterdir())  # noqa: E731
+    sent = signal_when(proc, signal.SIGINT, staging, poll=0.0005)
+    _o, err = ended(proc, tag, 120)
+    assert proc.returncode in ((130, 0) if sent else (0,)), err.decode()
+    names = json.loads((out / MANIFEST).read_text())["files"]
+    assert all((out / n).is_file() for n in names), names
+    rows = (out / "trajectory.csv").read_text().splitlines()[2:]
+    assert len(rows) >= 1 and ("trajectory.csv" in names)
+    assert temporaries(out) == []

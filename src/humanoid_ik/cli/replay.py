@@ -23,6 +23,7 @@ __all__ = ["register"]
 
 def _cmd_replay(args: argparse.Namespace) -> int:
     from humanoid_ik.core.models import model_cameras
+    from humanoid_ik.outputs.atomic import published
     from humanoid_ik.outputs.record import check_output_dir
     from humanoid_ik.outputs.render.backend import select_backend
     from humanoid_ik.outputs.render.pipeline import replay_trajectory
@@ -43,6 +44,12 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     if rs.camera not in cams:
         raise UsageError(f"--camera '{rs.camera}' not in model; cameras: {', '.join(cams)}")
     out = Path("renders") / f"{traj.scene}_replay" if args.out is None else Path(args.out)
+    source = Path(args.trajectory)
+    if out.resolve() == source.resolve().parent and source.name in published(out):
+        raise UsageError(
+            f"--out '{out}' holds the set '{source}' belongs to, which a replay there would "
+            "replace: choose another --out"
+        )
     check_output_dir(out)
     backend = select_backend()
     if backend.note:

@@ -11,7 +11,8 @@ has the run write every file into a fresh staging folder inside the output folde
 :data:`MANIFEST`) with the new ones, with SIGINT and SIGTERM held back and a lock
 against another run publishing into the same folder. A run that fails or is stopped
 while writing leaves the previous set untouched; the folder never holds a mix of two
-runs' files. Files the manifest does not list (the user's own) are never touched.
+runs' files. Files the manifest does not list (the user's own) are never touched: a
+run whose set would replace one is refused (:func:`publish`).
 
 Portable: the folder's lock is ``fcntl.flock`` where ``fcntl`` exists (POSIX) and an
 ``O_EXCL`` lock file holding the writer's process id elsewhere (:func:`_folder_lock`);
@@ -235,11 +236,25 @@ def publish(staging: str | os.PathLike, folder: str | os.PathLike) -> list[Path]
     """Move every file of ``staging`` into ``folder``, in place of the files the previous
     run published there, and record them in the folder's :data:`MANIFEST`; returns the
     final paths. Runs with SIGINT and SIGTERM held back and with the folder's lock held,
-    so neither a Ctrl-C nor a concurrent run can leave two runs' files mixed."""
+    so neither a Ctrl-C nor a concurrent run can leave two runs' files mixed.
+
+    Raises:
+        FileExistsError: a file of the new set is in ``folder`` already but no earlier
+            run published it (the user's own): nothing is replaced.
+    """
     src, dst = Path(staging), Path(folder)
     names = sorted(p.name for p in src.iterdir() if p.is_file() and not p.name.startswith("."))
     with _signals_held(), _folder_lock(dst / _LOCK):
-        for old in set(published(dst)) - set(names):
+        ours = set(published(dst))
+        theirs = [n for n in names if n not in ours and os.path.lexists(dst / n)]
+        if theirs:
+            raise FileExistsError(
+                errno.EEXIST,
+                "not written over a file that no earlier run wrote here (remove it or "
+                "choose another output folder)",
+                str(dst / theirs[0]),
+            )
+        for old in ours - set(names):
             (dst / old).unlink(missing_ok=True)
         for name in names:
             os.replace(src / name, dst / name)

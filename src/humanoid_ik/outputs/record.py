@@ -132,7 +132,8 @@ def record_scene(
     """Run a scene without rendering and write ``metrics.csv``, ``metrics.json``,
     ``trajectory.npz`` and ``trajectory.csv`` into ``out_dir`` (default
     ``renders/<scene name>``). Ctrl-C stops the run early; the files are then written for
-    the frames done (``interrupted`` is set). The files replace the previous run's in
+    the frames done (``interrupted`` is set); stopped before its first frame, it raises
+    ``KeyboardInterrupt`` and writes nothing. The files replace the previous run's in
     that folder as one set (``outputs/atomic.py``: :func:`staged_outputs`).
 
     Raises:
@@ -142,6 +143,8 @@ def record_scene(
     folder = check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
     runner = SceneRunner(scene)
     metrics = runner.run(on_frame=progress_reporter(progress, runner.n_frames))
+    if not len(metrics):  # stopped before its first frame: the previous set stays
+        raise KeyboardInterrupt
     traj = metrics.trajectory()
     with staged_outputs(folder) as stage:
         csv_path, json_path = write_metrics(metrics, stage)

@@ -256,6 +256,8 @@ def render_scene(
             )
             metrics, cut = done[0], False
             frame_times = list(metrics.frame_times)
+        if not frame_times:  # stopped before its first frame: the previous set stays
+            raise KeyboardInterrupt
         csv_path, json_path = write_metrics(metrics, stage)
         plot_path = plot_metrics(metrics, stage / "metrics.png") if plot and len(metrics) else None
         traj_files: tuple[Path, ...] = ()
@@ -336,6 +338,8 @@ def replay_trajectory(
             marker_radius(trajectory_chains(model, trajectory, task="reach")),
         )
         times, interrupted = done[0]
+        if not times:  # stopped before its first frame: the previous set stays
+            raise KeyboardInterrupt
         result = FilmOutputs(
             folder=stage,
             frames=len(times),
