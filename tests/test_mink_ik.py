@@ -25,6 +25,7 @@ import mink
 import mujoco
 import numpy as np
 import pytest
+from numpy.typing import NDArray
 
 from humanoid_ik import (
     SOLVERS,
@@ -37,7 +38,9 @@ from humanoid_ik import (
     make_solver,
     solve,
 )
+from humanoid_ik.core.limbs import find_limbs, limb_chain
 from humanoid_ik.core.measures import axis_vector, gaze_error
+from humanoid_ik.core.models import COLLISION_GROUP, load_model
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.rotations import mat_to_quat, rotation_log
 from humanoid_ik.experiments.bench import make_targets
@@ -53,6 +56,8 @@ from humanoid_ik.solvers.mink import (
     UpperBodyIK,
     UpperBodyResult,
 )
+from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
+from tests.robots import robot_file
 
 from .chains import SMALL_ARM_XML, model
 
@@ -1050,14 +1055,13 @@ def test_bad_options_are_refused():
 
 
 def test_bad_chains_are_refused():
-    """Chains on another model, an effector given twice, a body as gaze."""
+    """Chains on another model, an effector given twice, no effector. (A body as the
+    gaze is a head limb's gaze frame: test_upper_body_on_a_real_humanoid.)"""
     with pytest.raises(ChainError, match="another MjModel"):
         UpperBodyIK(Chain().model, hands=(Chain(),))
     with pytest.raises(ChainError, match="given twice"):
         _upper_body(hands=("right_palm_site", "right_palm_site"))
     m = Chain().model
-    with pytest.raises(ChainError, match="gaze effector must be a site"):
-        UpperBodyIK(m, hands=(), gaze=Chain(m, body="head_link"))
     with pytest.raises(ChainError, match="at least one effector"):
         UpperBodyIK(m, hands=())
 
@@ -1093,3 +1097,139 @@ def test_task_parts_refuse_bad_input():
 def test_mink_options_have_upper_bounds_named_in_the_error(option, value, bound):
     with pytest.raises(SolverError, match=f"option '{option}' of solver 'mink' .*{bound}"):
         make_solver("mink", **{option: value})
+
+
+# ---------------------------------------------------------------------------- real humanoids
+def _pairs(pairs) -> set[frozenset[frozenset]]:
+    """Pairs of geom groups as sets (the order of groups and names aside)."""
+    return {frozenset(frozenset(g) for g in pair) for pair in pairs}
+
+
+def test_limb_pairs_of_the_bundled_humanoid_are_the_scenes():
+    """collision_pairs="limbs" on the bundled humanoid derives the pairs its scene lists
+    by hand (each forearm and hand against torso, chest and head; hand against hand),
+    so the collision limit checks the same geom pairs; any other string is refused
+    naming 'limbs'."""
+    robot = Robot()
+    assert _pairs(limb_collision_pairs(robot.model)) == _pairs(PAIRS)
+    derived = _upper_body(robot, collision_pairs="limbs")
+    listed = _upper_body(robot)
+    assert (
+        derived.options.collision_pairs
+        == "limbs"
+        == MinkOptions.parse("mink", {"collision_pairs": "limbs"}).collision_pairs
+    )
+    assert _pairs(derived.collision_pairs) == _pairs(PAIRS)
+    assert sorted(derived.collision_limit.geom_id_pairs) == sorted(
+        listed.collision_limit.geom_id_pairs
+    )
+    with pytest.raises(SolverError, match=r"'collision_pairs' .* or 'limbs', got 'limb'"):
+        make_solver("mink", collision_pairs="limb")
+
+
+HUMANOID_PAIRS = {
+    "g1": (
+        {"left_elbow_link_collision", "left_wrist_yaw_link_collision"},
+        {"torso_link_collision", "head_link_collision", "pelvis_contour_link_collision"},
+        "left_shoulder_yaw_link_collision",
+    ),
+    "talos": (
+        {"arm_left_4_link_collision", "gripper_left_base_link_collision"},
+        {"torso_2_link_collision", "head_2_link_collision", "base_link_collision"},
+        "arm_left_3_link_collision",
+    ),
+}
+"""Per robot: geoms of the left forearm and hand group, of the torso and head group, and
+an upper-arm geom that is in neither (it touches the torso at the shoulder)."""
+
+
+def _distances(ik: UpperBodyIK) -> NDArray:
+    """Every checked geom pair's distance [m] (negative: penetration) at the IK's pose."""
+    m, d, ft = ik.model, ik.configuration.data, np.zeros(6)
+    return np.array(
+        [mujoco.mj_geomDistance(m, d, a, b, 1.0, ft) for a, b in ik.collision_limit.geom_id_pairs]
+    )
+
+
+def _front_targets(ik: UpperBodyIK, hands, gaze, axis, forward) -> dict:
+    """Targets both hands and the gaze reach exactly, in front of the robot: the hands
+    where they are at a seeded in-range pose half way from home (at least 0.1 m in
+    front of their shoulders, every pair at least 3 cm apart), the gaze 1 m along the
+    head's axis at such a pose."""
+    rng = np.random.default_rng(0)
+    d = ik.configuration.data
+    for _ in range(200):
+        q = ik.q_home.copy()
+        for c in [*hands, *([gaze] if gaze else [])]:
+            q[c.qpos_adr] = c.q_home + 0.5 * (c.random_q(rng) - c.q_home)
+        ik.set_q(q)
+        ahead = [float(np.dot(d.xpos[c.ee_id] - d.xanchor[c.joint_ids[0]], forward)) for c in hands]
+        if min(ahead) > 0.1 and _distances(ik).min() > 0.03:
+            break
+    else:
+        raise AssertionError("no collision-free pose with both hands in front")
+    out = {c.ee_name: d.xpos[c.ee_id].copy() for c in hands}
+    if gaze is not None:
+        out[gaze.ee_name] = d.xpos[gaze.ee_id] + d.xmat[gaze.ee_id].reshape(3, 3) @ axis
+    ik.reset()
+    return out
+
+
+@pytest.mark.parametrize("name", ["g1", "talos"])
+def test_upper_body_on_a_real_humanoid(name):
+    """G1 and Talos, original URDFs: both hands (the arms' end frames from find_limbs)
+    and, on Talos, the gaze (its head limb: two neck joints, gaze frame head_2_link;
+    G1's head is fixed, so there the gaze is no task) in one QP per step, with
+    collision_pairs="limbs". The derived pairs hold the forearm, hand, torso and head
+    collision geoms (not the upper arm, no visual geom). 60 steps of 1/30 s toward
+    reachable targets in front of the robot: hands within 1 mm, gaze within 1 deg, no
+    joint out of range, no pair penetrating. Then both hands are sent to one point
+    between them: the hands stop apart (every pair at a distance >= 0), while without
+    the pairs the same steps drive them into each other."""
+    model = load_model(robot_file(name))
+    profile = find_limbs(model)
+    robot = Robot(model)
+    hands = [limb_chain(robot, arm, profile=profile) for arm in ("left_arm", "right_arm")]
+    head = profile.limb("head")
+    gaze = limb_chain(robot, "head", profile=profile) if head.joints else None
+    assert (gaze is None) == (name == "g1")
+    axis = None if gaze is None else np.array(head.axis)
+    ik = UpperBodyIK(robot, hands=hands, gaze=gaze, gaze_axis=axis, collision_pairs="limbs")
+    pairs = ik.collision_pairs
+    assert _pairs(pairs) == _pairs(limb_collision_pairs(model, profile)) and len(pairs) == 3
+    forearm, body, upper = HUMANOID_PAIRS[name]
+    assert (
+        forearm <= set(pairs[0][0]) and body <= set(pairs[0][1]) and body == body & set(pairs[1][1])
+    )
+    named = {n for pair in pairs for group in pair for n in group}
+    assert upper not in named and not any(n.endswith("_visual") for n in named)
+    assert all(model.geom_group[model.geom(n).id] == COLLISION_GROUP for n in named)
+    assert len(ik.collision_limit.geom_id_pairs) > 20
+    targets = _front_targets(ik, hands, gaze, axis, np.array(profile.forward))
+    lowest = np.inf
+    for _ in range(60):
+        res = ik.step(targets, 1 / 30)
+        for c in ik.chains.values():
+            q = ik.q[c.qpos_adr]
+            assert np.all((q >= c.lower) & (q <= c.upper)), c.ee_name
+        lowest = min(lowest, _distances(ik).min())
+    for c in hands:
+        assert res[c.ee_name].position_error < 1e-3, (c.ee_name, res[c.ee_name])
+    if gaze is not None:
+        assert res[gaze.ee_name].orientation_error < math.radians(1.0), res[gaze.ee_name]
+    assert lowest >= 0.0
+    # both hands to the point between them: the pairs keep them apart
+    middle = (targets[hands[0].ee_name] + targets[hands[1].ee_name]) / 2
+    squeeze = {c.ee_name: middle for c in hands}
+    free = UpperBodyIK(robot, hands=hands)
+    for solver in (ik, free):
+        solver.reset()
+        lowest = np.inf
+        for _ in range(60):
+            solver.step(squeeze, 1 / 30)
+            ik.set_q(solver.q)  # measure every derived pair at this pose
+            lowest = min(lowest, _distances(ik).min())
+        if solver is ik:
+            assert lowest >= 0.0, lowest
+        else:
+            assert lowest < 0.0, lowest  # the test can fail: without pairs they collide

@@ -1,19 +1,21 @@
 """The command line on real robots of example-robot-data, their original URDFs: what a
 user meets first. ``inspect`` lists the end effectors its header counts, ``solve``
-prints its CPU and wall time and names a home pose outside the ranges once, and a
-two_link solve on a chain that is not a two-link limb is refused in one line."""
+prints its CPU and wall time and names a home pose outside the ranges once (as every
+other command does, with one note), and a two_link solve on a chain that is not a
+two-link limb is refused in one line."""
 
 from __future__ import annotations
 
 import json
 import re
+import warnings
 
 import numpy as np
 import pytest
 
 from humanoid_ik.cli import main
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.models import load_model
+from humanoid_ik.core.models import HomeWarning, load_model
 from tests.robots import g1_arm, robot_file
 
 G1_ARM = list(g1_arm("left"))
@@ -90,6 +92,49 @@ def test_talos_home_outside_its_ranges_is_said_once(capsys):
     assert main(["inspect", "--model", urdf]) == 0
     out = capsys.readouterr().out
     assert out.count("'arm_left_2_joint' +0.0000 -> +0.0087") == 1
+
+
+KINOVA_HOME = (
+    "the home pose (qpos0) has 3 joint(s) outside their ranges; solves start from it moved "
+    "inside: 'j2s6s200_joint_2' +0.0000 -> +0.8203, 'j2s6s200_joint_3' +0.0000 -> +0.3316, "
+    "'j2s6s200_joint_5' +0.0000 -> +0.5236 (rad, or m for slides)"
+)
+
+
+def test_home_outside_the_ranges_is_one_note_on_every_command(tmp_path, capsys):
+    """Kinova's qpos0 has joints 2, 3 and 5 at 0, outside their ranges: loading it warns
+    (HomeWarning, once per model), and run, render (which loads it twice: the scene's
+    model and the film's stage) and bench each print it as one note line, naming the
+    file, the joints and the values they start from."""
+    urdf = robot_file("kinova")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("default")  # Python's own rule: once per place and text
+        model = load_model(urdf)
+        load_model(urdf)
+    assert [(w.category, str(w.message)) for w in said] == [
+        (HomeWarning, f"model '{urdf}': {KINOVA_HOME}")
+    ]
+    chain = Chain(model, body="j2s6s200_end_effector")
+    a, b = chain.fk(chain.q_home)[0], chain.fk(chain.q_home + 0.2)[0]
+    pts = ", ".join(f"[{', '.join(f'{v:.5f}' for v in p)}]" for p in (a, b))
+    scene = tmp_path / "kinova.toml"
+    scene.write_text(
+        f'name = "kinova"\nmodel = "{urdf}"\nduration = 1.0\nfps = 2\n[solver]\n'
+        'name = "dls"\n[render]\nwidth = 64\nheight = 48\ncontact_sheet = 0\n'
+        '[[targets]]\nname = "p"\n'
+        f'motion = {{ kind = "points", points = [{pts}], hold = 0.5, travel = 0.0 }}\n'
+        '[[effectors]]\nbody = "j2s6s200_end_effector"\ntarget = "p"\n'
+    )
+    bench = ["bench", "--model", str(urdf), "--body", "j2s6s200_end_effector"]
+    for args in (
+        ["run", str(scene), "--out", str(tmp_path / "run")],
+        ["render", str(scene), "--out", str(tmp_path / "render"), "--no-video"],
+        [*bench, "--solvers", "dls", "--n", "3"],
+    ):
+        assert main(args) == 0, args
+        err = capsys.readouterr().err.splitlines()
+        notes = [ln for ln in err if "home pose" in ln]
+        assert notes == [f"humanoid-ik: note: model '{urdf}': {KINOVA_HOME}"], (args, err)
 
 
 def test_two_link_refused_on_g1_default_chain(capsys):

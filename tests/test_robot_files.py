@@ -623,3 +623,36 @@ def test_cli_view_takes_joints(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     assert load_trajectory(out / "trajectory.npz").effectors[0].joints == tuple(joints)
+
+
+# ----------------------------------------------------------------------------- geom names
+def test_urdf_geoms_are_named_after_their_links(capsys):
+    """A URDF names no geom: each gets ``<link>_visual`` / ``<link>_collision``, then
+    ``_1``, ``_2`` ... in file order (G1's ankle has four collision spheres), unique and
+    the same on every load; ``inspect`` lists the collision pairs derived from the limbs
+    by those names, in its text and its JSON."""
+    g1 = robot_file("g1")
+    m = load_model(g1)
+    names = [m.geom(i).name for i in range(m.ngeom)]
+    assert all(names) and len(set(names)) == m.ngeom == 71
+    assert [n for n in names if n.startswith("left_ankle_roll_link_collision")] == [
+        "left_ankle_roll_link_collision",
+        "left_ankle_roll_link_collision_1",
+        "left_ankle_roll_link_collision_2",
+        "left_ankle_roll_link_collision_3",
+    ]
+    elbow = m.geom("left_elbow_link_collision")
+    assert m.body(elbow.bodyid[0]).name == "left_elbow_link"
+    assert elbow.group[0] == COLLISION_GROUP
+    assert m.geom("left_elbow_link_visual").group[0] == VISUAL_GROUP
+    assert [load_model(g1).geom(i).name for i in range(m.ngeom)] == names
+    assert main(["inspect", "--model", str(g1)]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "  left_elbow_link_collision .. left_wrist_yaw_link_collision (4 geoms) vs "
+        "pelvis_contour_link_collision .. head_link_collision (4 geoms)"
+    ) in out.splitlines()
+    assert main(["inspect", "--model", str(g1), "--json"]) == 0
+    pairs = json.loads(capsys.readouterr().out)["collision_pairs"]
+    assert len(pairs) == 3
+    assert pairs[2] == [["left_wrist_yaw_link_collision"], ["right_wrist_yaw_link_collision"]]

@@ -61,12 +61,17 @@ def arm_chains(model: mujoco.MjModel, name: str) -> list[Chain]:
 
 
 def scene_file(
-    name: str, path: Path, model: mujoco.MjModel, folder: Path, camera: str = "front"
+    name: str,
+    path: Path,
+    model: mujoco.MjModel,
+    folder: Path,
+    camera: str = "front",
+    from_home: bool = False,
 ) -> Path:
     """A 3-frame scene (0, 0.67 and 1.33 s): each arm's target goes out from where the
     hand is at one seeded random pose 30 % of the way from home to where it is at
     another, holds there and comes back (DLS tracks it). A humanoid's arm starts at
-    home."""
+    home, a single arm too with ``from_home``."""
     chains = arm_chains(model, name)
     rng = np.random.default_rng(1)
     text = [
@@ -77,7 +82,7 @@ def scene_file(
     ]
     for k, c in enumerate(chains):
         pose = c.q_home + 0.3 * (c.random_q(rng) - c.q_home)
-        start, _ = c.fk(c.q_home if len(chains) == 2 else pose)
+        start, _ = c.fk(c.q_home if len(chains) == 2 or from_home else pose)
         far, _ = c.fk(c.q_home + 0.3 * (c.random_q(rng) - c.q_home))
         a, b = (", ".join(f"{v:.4f}" for v in p) for p in (start, far))
         text.append(
@@ -86,7 +91,7 @@ def scene_file(
         )
         joints = ", ".join(f'"{j}"' for j in c.joint_names)
         text.append(f'[[effectors]]\nbody = "{c.ee_name}"\njoints = [{joints}]\ntarget = "t{k}"\n')
-    path = folder / f"{name}_{camera}.toml"
+    path = folder / f"{name}_{camera}{'_home' if from_home else ''}.toml"
     path.write_text("\n".join(text))
     return path
 
@@ -265,6 +270,28 @@ def test_film_faces_the_robot_frames_its_run_and_shows_the_markers(films, name):
         chains = arm_chains(model, name)
         (ul, _, _), (ur, _, _) = (project(model, data, "front", c.base, W, H) for c in chains)
         assert ul > ur + 2, (name, ul, ur)
+
+
+@pytest.mark.parametrize("name", ["so100", "kinova"])
+def test_film_from_home_frames_the_whole_run(models, tmp_path, name):
+    """A single arm filmed from its home pose (its target starts where the hand is at
+    home, goes 30 % of the way to a random pose and comes back): the first frame is the
+    home pose, and in the rendered frames (segmentation of the film's model, front
+    camera) the robot fills a sensible share of the height there (SO-100 56 %, Kinova
+    47 %: the stage frames the whole run, and the arm rises later), is never cut by
+    the frame's top or bottom, and spans at least 70 % of the height over the run."""
+    model = models(name)
+    sc = load_scene(scene_file(name, robot_file(name), model, tmp_path, from_home=True))
+    out = render_scene(sc, tmp_path / name, video=False, plot=False)
+    traj = out.metrics.trajectory()
+    (chain,) = arm_chains(model, name)
+    np.testing.assert_allclose(traj.qpos[0][chain.qpos_adr], chain.q_home, atol=1e-6)
+    rows = robot_rows(trajectory_stage(sc.model, traj, W / H), traj.qpos, "front")
+    top, bottom = rows[0]
+    assert (bottom - top + 1) / H >= 0.4, (name, rows)
+    assert all(0 < t and b < H - 1 for t, b in rows), (name, rows)
+    span = max(b for _, b in rows) - min(t for t, _ in rows) + 1
+    assert span / H >= 0.7, (name, rows)
 
 
 def test_markers_are_sized_to_the_robot(models):

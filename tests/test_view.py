@@ -21,9 +21,17 @@ import pytest
 from humanoid_ik.cli import main
 from humanoid_ik.config.scene import load_scene
 from humanoid_ik.core.measures import ON_TARGET_DISTANCE
+from humanoid_ik.outputs.render import MARKER_RADIUS, marker_radius
 from humanoid_ik.outputs.trajectory import load_trajectory
-from humanoid_ik.outputs.viewer import KEY_PAUSE, KEY_RELEASE, LiveTargets, mocap_model
+from humanoid_ik.outputs.viewer import (
+    KEY_PAUSE,
+    KEY_RELEASE,
+    LiveTargets,
+    mocap_model,
+    scene_mocap_model,
+)
 from humanoid_ik.run.runner import SceneRunner
+from tests.robots import robot_file
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -215,3 +223,41 @@ def test_mocap_model_adds_one_body_per_target():
         b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"target_{t.name}")
         g = model.body_geomadr[b]
         assert model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0
+
+
+def _marker_sizes(model: mujoco.MjModel, names: list[str]) -> list[float]:
+    """The radius [m] of each target's mocap sphere."""
+    out = []
+    for n in names:
+        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"target_{n}")
+        out.append(float(model.geom_size[model.body_geomadr[b], 0]))
+    return out
+
+
+def test_viewer_markers_are_sized_as_a_films(tmp_path):
+    """The viewer's target spheres have a film's marker radius, from the same rule
+    (marker_radius of the reaching chains): 0.02 m on the bundled humanoid, about
+    0.0098 m on SO-100's 0.45 m arm (no longer a fixed 0.025 m); the viewer's model faces
+    SO-100 as a film does (its front camera looks along -y, where the jaw points)."""
+    both = load_scene("both_hands")
+    model, _ = scene_mocap_model(both)
+    names = [t.name for t in both.targets]
+    assert _marker_sizes(model, names) == [pytest.approx(MARKER_RADIUS, abs=1e-12)] * 2
+    urdf = robot_file("so100")
+    path = tmp_path / "so100.toml"
+    path.write_text(
+        f'name = "so100"\nmodel = "{urdf}"\nduration = 1.0\nfps = 2\n[solver]\nname = "dls"\n'
+        '[[targets]]\nname = "p"\nmotion = { kind = "points", points = [[0.0, -0.25, 0.15]], '
+        "hold = 1.0, travel = 0.0 }\n"
+        '[[effectors]]\nbody = "jaw"\ntarget = "p"\n'
+    )
+    scene = load_scene(path)
+    model, mocap = scene_mocap_model(scene)
+    runner = SceneRunner(scene, model)
+    (radius,) = _marker_sizes(model, ["p"])
+    assert radius == pytest.approx(marker_radius(runner.chains), abs=1e-12)
+    assert radius == pytest.approx(0.0098, rel=0.05) and len(mocap) == 1
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    view_dir = -data.cam("front").xmat.reshape(3, 3)[:, 2]  # a camera looks along its -z
+    assert view_dir[1] > 0.8 * np.linalg.norm(view_dir[:2]), view_dir  # toward +y: at the jaw

@@ -5,7 +5,7 @@ the reach, the frames that are not end effectors, and what looks wrong in the mo
 from __future__ import annotations
 
 import argparse
-import json
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -17,9 +17,9 @@ from humanoid_ik.cli.args import (
     package_paths,
 )
 from humanoid_ik.core.limbs import profile_for
-from humanoid_ik.core.models import load_model
+from humanoid_ik.core.models import HomeWarning, load_model
 from humanoid_ik.experiments.inspection import inspect_model
-from humanoid_ik.outputs.atomic import write_text
+from humanoid_ik.outputs.atomic import json_text, write_text
 
 __all__ = ["register"]
 
@@ -31,10 +31,12 @@ def _cmd_inspect(args: argparse.Namespace) -> int:
         args.model, names(args.joints), packages=package_paths(args), limbs=args.limbs
     )
     if args.save_limbs is not None:
-        model = load_model(args.model, packages=package_paths(args))
+        with warnings.catch_warnings():  # the report has the home pose's line
+            warnings.simplefilter("ignore", HomeWarning)
+            model = load_model(args.model, packages=package_paths(args))
         write_text(args.save_limbs, profile_for(model, args.model, args.limbs).to_toml())
     if args.json:
-        print(json.dumps(report.to_dict(), indent=2))
+        print(json_text(report.to_dict(), indent=2))
     else:
         print(report.text())
     return 0

@@ -4,18 +4,19 @@ solve's CPU and wall time."""
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
+import warnings
 from typing import Any
 
 import numpy as np
 
 from humanoid_ik.cli.args import add_chain_args, chain_from_args, floats, options
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.models import bundled_model_path, display_model
+from humanoid_ik.core.models import HomeWarning, bundled_model_path, display_model, home_warning
 from humanoid_ik.core.types import IKResult, Target
-from humanoid_ik.experiments.inspection import home_warning, range_hints
+from humanoid_ik.experiments.inspection import range_hints
+from humanoid_ik.outputs.atomic import json_text
 from humanoid_ik.solvers import SOLVERS, make_solver
 
 __all__ = ["register"]
@@ -26,7 +27,9 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         floats(args.target, 3, "--target"),
         None if args.quat is None else floats(args.quat, 4, "--quat"),
     )
-    chain = chain_from_args(args)
+    with warnings.catch_warnings():  # said below as a warning, and in --json
+        warnings.simplefilter("ignore", HomeWarning)
+        chain = chain_from_args(args)
     home = home_warning(chain.model)
     if home is not None:
         print(f"humanoid-ik: warning: {home}", file=sys.stderr)
@@ -46,7 +49,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
             "hints": hints,
             "warnings": [] if home is None else [home],
         }
-        print(json.dumps(doc, indent=2))
+        print(json_text(doc, indent=2))
     else:
         width = max(len(n) for n in chain.joint_names)
         name = result.solver

@@ -1,7 +1,9 @@
 """The model layer: where the bundled files live, loading MJCF, and the ``home`` keyframe.
 
 Every other module asks here for a model, the bundled folders and the home pose, so the
-rule for each is written once.
+rule for each is written once. A model file whose home pose lies outside its joint
+ranges is said once, where it is loaded (:class:`HomeWarning`), so every command that
+starts from home says so.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from numpy.typing import NDArray
 
 from humanoid_ik.core.meshes import convert_meshes
 from humanoid_ik.core.model_cache import compile_cached
+from humanoid_ik.core.names import joint_name
 from humanoid_ik.core.robot_files import (
     ModelWarning,
     PackageIndex,
@@ -31,11 +34,14 @@ __all__ = [
     "BUNDLED_KINDS",
     "COLLISION_GROUP",
     "HOME_KEY",
+    "HomeWarning",
     "ModelWarning",
     "VISUAL_GROUP",
     "bundled_dir",
     "bundled_model_path",
+    "home_outside_ranges",
     "home_qpos",
+    "home_warning",
     "STAGE_CAMERAS",
     "URDF_MIN_INERTIA",
     "URDF_MIN_MASS",
@@ -47,6 +53,7 @@ __all__ = [
     "needs_stage",
     "reset_to_home",
     "staged_cameras",
+    "urdf_geom_name",
 ]
 
 HOME_KEY = "home"
@@ -132,16 +139,33 @@ def load_model(
     Raises:
         ModelError: the path does not exist, a mesh is not found, or MuJoCo cannot
             compile it (MuJoCo's message is kept, with the fix for the mistakes it names).
+
+    Warns:
+        HomeWarning: the file's home pose has joints outside their ranges (once per
+            model and process: :func:`home_warning`).
     """
     if isinstance(model, mujoco.MjModel):
         return model
     path = model_file(model)
     if is_robot_file(path):
-        return compile_spec(model_spec(path, packages=packages), path)
-    try:
-        return mujoco.MjModel.from_xml_path(str(path))
-    except ValueError as exc:
-        raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
+        compiled = compile_spec(model_spec(path, packages=packages), path)
+    else:
+        try:
+            compiled = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as exc:
+            raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
+    home = home_warning(compiled)
+    if home is not None:  # stacklevel 1: one place, so Python says each model once
+        warnings.warn(f"model '{path}': {home}", HomeWarning, 1)
+    return compiled
+
+
+class HomeWarning(ModelWarning):
+    """A model file whose home pose (the ``home`` keyframe, else ``qpos0``) has joints
+    outside their ranges: every solve, run and render starts from it moved inside
+    (:func:`home_warning` says which joints and where). Raised by :func:`load_model`;
+    the command line prints it as one ``humanoid-ik: note: ...`` line (``inspect`` and
+    ``solve``, which report it themselves, silence it)."""
 
 
 URDF_MIN_MASS = 1e-6
@@ -189,7 +213,9 @@ def model_spec(
     - ``<visual>`` and ``<collision>`` geoms are both kept: visuals in
       :data:`VISUAL_GROUP`, drawn and colliding with nothing; collisions in
       :data:`COLLISION_GROUP`, colliding and hidden. A URDF without any
-      ``<collision>`` lets its visuals collide (else nothing would);
+      ``<collision>`` lets its visuals collide (else nothing would). Unnamed geoms are
+      named after their link (``<link>_collision``, ``<link>_collision_1`` ...,
+      ``<link>_visual``: :func:`urdf_geom_name`);
     - links on fixed joints stay bodies (a ``tool_link`` stays nameable with
       ``--body``), except a root link that only carries a floating base: it is fused
       into the world, so the floating joint is at the top level (MuJoCo's rule for a
@@ -252,14 +278,20 @@ def _fuse_floating_roots(spec: mujoco.MjSpec) -> None:
 
 def _group_geoms(spec: mujoco.MjSpec) -> None:
     """Move the URDF's visual geoms to :data:`VISUAL_GROUP` and its collision geoms to
-    :data:`COLLISION_GROUP`.
+    :data:`COLLISION_GROUP`, and name the unnamed ones after their link.
 
     MuJoCo's URDF reader marks a ``<visual>`` geom by group 1 with ``contype`` and
-    ``conaffinity`` 0, a ``<collision>`` geom by group 0 with both 1.
+    ``conaffinity`` 0, a ``<collision>`` geom by group 0 with both 1, and names neither.
+    They are named ``<link>_visual``, ``<link>_collision``, then ``<link>_collision_1``
+    ... in the file's order (:func:`urdf_geom_name`): names stable across loads and
+    model edits that ``collision_pairs`` and messages can use, which geom ids are not
+    (a stage's floor shifts them).
     """
     geoms = list(spec.geoms)
     visual = [g.group == 1 and g.contype == 0 and g.conaffinity == 0 for g in geoms]
     collide_visuals = all(visual)
+    taken = {g.name for g in geoms if g.name}
+    counts: dict[tuple[str, str], int] = {}
     for geom, is_visual in zip(geoms, visual, strict=True):
         if is_visual:
             geom.group = VISUAL_GROUP
@@ -267,6 +299,25 @@ def _group_geoms(spec: mujoco.MjSpec) -> None:
                 geom.contype = geom.conaffinity = 1
         else:
             geom.group = COLLISION_GROUP
+        if geom.name:
+            continue
+        kind = "visual" if is_visual else "collision"
+        link = geom.parent.name
+        while True:
+            k = counts.get((link, kind), 0)
+            counts[link, kind] = k + 1
+            name = urdf_geom_name(link, kind, k)
+            if name not in taken:
+                break
+        geom.name = name
+        taken.add(name)
+
+
+def urdf_geom_name(link: str, kind: str, index: int = 0) -> str:
+    """The name a URDF's unnamed geom gets: ``<link>_<kind>`` for the link's first
+    ``kind`` (``visual`` or ``collision``) geom, ``<link>_<kind>_<index>`` for the
+    next ones."""
+    return f"{link}_{kind}" if index == 0 else f"{link}_{kind}_{index}"
 
 
 def _balance_inertia(spec: mujoco.MjSpec, name: str) -> bool:
@@ -386,6 +437,45 @@ def home_qpos(model: mujoco.MjModel) -> NDArray[np.float64]:
     """A copy of the ``home`` keyframe's ``qpos`` ``(nq,)``, else of ``qpos0``."""
     kid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY)
     return np.array(model.key_qpos[kid] if kid >= 0 else model.qpos0, dtype=np.float64)
+
+
+def home_outside_ranges(model: mujoco.MjModel) -> list[tuple[str, float, float]]:
+    """The limited hinges and slides whose home value (the ``home`` keyframe, else
+    ``qpos0``) lies outside their range: ``(joint name, home value, the value moved
+    inside)`` [rad or m], in model order.
+
+    Solves, runs and renders start from the home pose moved inside the ranges
+    (:meth:`Robot.reset <humanoid_ik.core.robot.Robot.reset>`, :attr:`Chain.q_home
+    <humanoid_ik.core.chain.Chain.q_home>`): a start outside them is one no solver
+    may return, so the nearest range end is taken.
+    """
+    home = home_qpos(model)
+    out = []
+    moving = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+    for j in range(model.njnt):
+        if int(model.jnt_type[j]) not in moving or not model.jnt_limited[j]:
+            continue
+        lo, hi = (float(v) for v in model.jnt_range[j])
+        v = float(home[model.jnt_qposadr[j]])
+        if not lo <= v <= hi:
+            out.append((joint_name(model, j), v, min(max(v, lo), hi)))
+    return out
+
+
+def home_warning(model: mujoco.MjModel) -> str | None:
+    """One line naming every joint whose home value lies outside its range, with the
+    value and the range end every solve starts from instead (:func:`home_outside_ranges`),
+    or ``None`` when the home pose is inside the ranges."""
+    moved = home_outside_ranges(model)
+    if not moved:
+        return None
+    keyed = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY) >= 0
+    where = f"keyframe '{HOME_KEY}'" if keyed else "qpos0"
+    each = ", ".join(f"'{n}' {v:+.4f} -> {c:+.4f}" for n, v, c in moved)
+    return (
+        f"the home pose ({where}) has {len(moved)} joint(s) outside their ranges; solves "
+        f"start from it moved inside: {each} (rad, or m for slides)"
+    )
 
 
 def reset_to_home(model: mujoco.MjModel, data: mujoco.MjData) -> None:

@@ -1,12 +1,15 @@
 """What the names of a model's joints, bodies and sites say: their words, and the
 vocabularies that tell a limb's joints (``shoulder``, ``hip``, ``neck`` ...) and a
 frame's role (a sensor, a camera, a finger, a hand) from them. Used by the limbs
-(``core/limbs.py``) and ``inspect``'s end effectors alike.
+(``core/limbs.py``) and ``inspect``'s end effectors alike. Also the one fallback for an
+unnamed joint (:func:`joint_name`).
 """
 
 from __future__ import annotations
 
 import re
+
+import mujoco
 
 __all__ = [
     "FRAME_WORDS",
@@ -14,6 +17,7 @@ __all__ = [
     "KIND_ORDER",
     "KIND_WORDS",
     "frame_role",
+    "joint_name",
     "name_words",
 ]
 
@@ -99,3 +103,8 @@ def frame_role(name: str) -> str | None:
     if words & HAND_WORDS:
         return "part" if words & _PART_WORDS else "hand"
     return None
+
+
+def joint_name(model: mujoco.MjModel, j: int) -> str:
+    """Joint ``j``'s name, or ``joint<j>`` for an unnamed joint: the one fallback."""
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, int(j)) or f"joint{int(j)}"

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.models import load_model, reset_to_home
+from humanoid_ik.core.names import joint_name
 from humanoid_ik.errors import ChainError
 
 __all__ = ["Robot", "joint_name", "names"]
@@ -67,11 +68,6 @@ def names(model: mujoco.MjModel, objtype: mujoco.mjtObj, count: int) -> list[str
         if name:
             out.append(name)
     return out
-
-
-def joint_name(model: mujoco.MjModel, j: int) -> str:
-    """Joint ``j``'s name, or ``joint<j>`` for an unnamed joint: the one fallback."""
-    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, int(j)) or f"joint{int(j)}"
 
 
 class Robot:

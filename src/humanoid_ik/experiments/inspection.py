@@ -5,8 +5,8 @@ unit, joints without a range, a free joint on the path, a home pose outside the 
 
 :func:`inspect_model` builds an :class:`Inspection`; ``humanoid-ik inspect`` prints its
 :meth:`~Inspection.text` or :meth:`~Inspection.to_dict` as JSON. :func:`range_hints`
-alone serves a failed solve's message, :func:`home_warning` the commands that start
-from home.
+alone serves a failed solve's message; :func:`home_warning` (``core/models.py``, which
+says it once when a model is loaded) the report's line on the home pose.
 
 **Which frames are end effectors.** The candidates are every named site, every named
 leaf body, and every hand link: a body named as a hand, gripper, tool, palm or flange
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -34,10 +35,11 @@ import numpy as np
 from humanoid_ik.core.chain import REACH_METHOD, Chain
 from humanoid_ik.core.limbs import profile_for
 from humanoid_ik.core.models import (
-    HOME_KEY,
+    HomeWarning,
     bundled_model_path,
     display_model,
-    home_qpos,
+    home_outside_ranges,
+    home_warning,
     load_model,
     model_spec,
     needs_stage,
@@ -45,7 +47,13 @@ from humanoid_ik.core.models import (
 from humanoid_ik.core.names import frame_role
 from humanoid_ik.core.robot import joint_name, names
 from humanoid_ik.errors import HumanoidIKError, NameNotFoundError
-from humanoid_ik.experiments.limb_report import LimbInfo, limb_infos, limb_lines
+from humanoid_ik.experiments.limb_report import (
+    LimbInfo,
+    limb_infos,
+    limb_lines,
+    limb_pairs,
+    pair_lines,
+)
 from humanoid_ik.solvers import SOLVERS
 
 __all__ = [
@@ -165,6 +173,8 @@ class Inspection:
         warnings: the suspicious things, one line each.
         limbs: the limbs found (``core/limbs.py``), with the solvers that apply exactly.
         limb_notes: what the limb search decided, one line each.
+        collision_pairs: the geom groups the mink solver's ``collision_pairs =
+            "limbs"`` keeps apart (``solvers/mink/pairs.py``), by geom name.
     """
 
     model: str
@@ -175,6 +185,7 @@ class Inspection:
     others: tuple[OtherFrame, ...] = ()
     limbs: tuple[LimbInfo, ...] = ()
     limb_notes: tuple[str, ...] = ()
+    collision_pairs: tuple[tuple[tuple[str, ...], ...], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready document."""
@@ -199,6 +210,7 @@ class Inspection:
             lines.append(f"not end effectors ({len(self.others)}):")
             lines.extend(_other_lines(self.others))
         lines.extend(limb_lines(self.limbs, self.limb_notes))
+        lines.extend(pair_lines(self.collision_pairs))
         if self.warnings:
             lines.append(f"warnings ({len(self.warnings)}):")
             lines.extend(f"  {w}" for w in self.warnings)
@@ -433,46 +445,6 @@ def range_hints(model: mujoco.MjModel, path: str | os.PathLike | None = None) ->
     return out
 
 
-def home_outside_ranges(model: mujoco.MjModel) -> list[tuple[str, float, float]]:
-    """The limited hinges and slides whose home value (the ``home`` keyframe, else
-    ``qpos0``) lies outside their range: ``(joint name, home value, the value moved
-    inside)`` [rad or m], in model order.
-
-    Solves, runs and renders start from the home pose moved inside the ranges
-    (:meth:`Robot.reset <humanoid_ik.core.robot.Robot.reset>`, :attr:`Chain.q_home
-    <humanoid_ik.core.chain.Chain.q_home>`): a start outside them is one no solver
-    may return, so the nearest range end is taken.
-    """
-    home = home_qpos(model)
-    out = []
-    for j in range(model.njnt):
-        if int(model.jnt_type[j]) not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
-            continue
-        if not model.jnt_limited[j]:
-            continue
-        lo, hi = (float(v) for v in model.jnt_range[j])
-        v = float(home[model.jnt_qposadr[j]])
-        if not lo <= v <= hi:
-            out.append((joint_name(model, j), v, min(max(v, lo), hi)))
-    return out
-
-
-def home_warning(model: mujoco.MjModel) -> str | None:
-    """One line naming every joint whose home value lies outside its range, with the
-    value and the range end every solve starts from instead (:func:`home_outside_ranges`),
-    or ``None`` when the home pose is inside the ranges."""
-    moved = home_outside_ranges(model)
-    if not moved:
-        return None
-    keyed = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY) >= 0
-    where = f"keyframe '{HOME_KEY}'" if keyed else "qpos0"
-    each = ", ".join(f"'{n}' {v:+.4f} -> {c:+.4f}" for n, v, c in moved)
-    return (
-        f"the home pose ({where}) has {len(moved)} joint(s) outside their ranges; solves "
-        f"start from it moved inside: {each} (rad, or m for slides)"
-    )
-
-
 def inspect_model(
     model: str | os.PathLike | None = None,
     joints: Sequence[str] | None = None,
@@ -495,15 +467,17 @@ def inspect_model(
         ModelError: the file does not exist or does not compile, or a bad profile.
         NameNotFoundError: a joint of ``joints`` is not in the model.
     """
-    m = load_model(model, packages=packages)
+    with warnings.catch_warnings():  # the home pose is among the report's warnings
+        warnings.simplefilter("ignore", HomeWarning)
+        m = load_model(model, packages=packages)
     for j in joints or ():
         if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j) < 0:
             raise NameNotFoundError("joint", j, names(m, mujoco.mjtObj.mjOBJ_JOINT, m.njnt))
     effectors: list[EffectorInfo] = []
-    warnings = range_hints(m, bundled_model_path() if model is None else model)
+    said = range_hints(m, bundled_model_path() if model is None else model)
     home = home_warning(m)
     if home is not None:
-        warnings.append(home)
+        said.append(home)
     candidates, others = _candidates(m)
     for kind, name in candidates:
         if joints is not None and not _moved_by(m, kind, name, joints):
@@ -515,9 +489,9 @@ def inspect_model(
             others.append(OtherFrame(kind, name, f"no chain: {exc}"))
             continue
         effectors.append(info)
-        warnings += [w for w in on_path if w not in warnings]
+        said += [w for w in on_path if w not in said]
     if not effectors:
-        warnings.append(
+        said.append(
             "no site or leaf body is an end effector with a hinge on its path: name the "
             "end effector with --body (any body) and the joints with --joints"
         )
@@ -533,8 +507,9 @@ def inspect_model(
         counts=counts,
         staged=needs_stage(m),
         effectors=tuple(effectors),
-        warnings=tuple(warnings),
+        warnings=tuple(said),
         others=tuple(others),
         limbs=limb_infos(m, profile),
         limb_notes=profile.notes,
+        collision_pairs=limb_pairs(m, profile),
     )

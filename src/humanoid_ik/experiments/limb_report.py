@@ -1,5 +1,7 @@
 """The limbs part of ``inspect``: each limb found (``core/limbs.py``) with its joints,
-its end frame, and which solver ``auto`` runs on it for pose targets and why."""
+its end frame, and which solver ``auto`` runs on it for pose targets and why; then the
+collision pairs the mink solver derives from them (``collision_pairs = "limbs"``,
+``solvers/mink/pairs.py``), by geom name."""
 
 from __future__ import annotations
 
@@ -12,8 +14,9 @@ from humanoid_ik.errors import HumanoidIKError
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.auto import Auto
+from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
 
-__all__ = ["LimbInfo", "limb_infos", "limb_lines"]
+__all__ = ["LimbInfo", "limb_infos", "limb_lines", "limb_pairs", "pair_lines"]
 
 
 @dataclass(frozen=True)
@@ -85,4 +88,27 @@ def limb_lines(limbs: tuple[LimbInfo, ...], notes: tuple[str, ...] = ()) -> list
                 state = f"applies (exact, {task} targets)" if why is None else f"no: {why}"
                 out.append(f"  {'':<{width}}  {solver}: {state}")
     out += [f"  note: {n}" for n in notes]
+    return out
+
+
+def limb_pairs(model: mujoco.MjModel, profile: Profile) -> tuple[tuple[tuple[str, ...], ...], ...]:
+    """The geom groups ``collision_pairs = "limbs"`` keeps apart on ``model``, each geom
+    by name (``#<id>`` for an unnamed MJCF geom)."""
+    return tuple(
+        tuple(tuple(g if isinstance(g, str) else f"#{g}" for g in group) for group in pair)
+        for pair in limb_collision_pairs(model, profile)
+    )
+
+
+def pair_lines(pairs: tuple[tuple[tuple[str, ...], ...], ...]) -> list[str]:
+    """The collision pairs section of the text report (nothing without pairs)."""
+    if not pairs:
+        return []
+
+    def group(names: tuple[str, ...]) -> str:
+        shown = ", ".join(names) if len(names) <= 2 else f"{names[0]} .. {names[-1]}"
+        return f"{shown} ({len(names)} geom{'s' if len(names) > 1 else ''})"
+
+    out = [f'collision pairs of the limbs ({len(pairs)}; mink: collision_pairs = "limbs"):']
+    out += [f"  {group(a)} vs {group(b)}" for a, b in pairs]
     return out

@@ -17,7 +17,7 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,9 +25,12 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from humanoid_ik.config.scene_check import check_scene
 from humanoid_ik.config.specs import Scene
+from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import Target
 from humanoid_ik.errors import RenderError
+from humanoid_ik.outputs.render.drawing import marker_radius
 from humanoid_ik.outputs.stage import staged_spec
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.metrics import FrameRecord
@@ -41,6 +44,7 @@ __all__ = [
     "ViewOutputs",
     "check_display",
     "mocap_model",
+    "scene_mocap_model",
     "view_scene",
 ]
 
@@ -48,8 +52,6 @@ KEY_PAUSE = 32
 """GLFW key code of the space bar: pause or resume the targets' motions."""
 KEY_RELEASE = 259
 """GLFW key code of Backspace: every dragged target goes back to its motion."""
-MARKER_RADIUS = 0.025
-"""Radius of a target's mocap sphere [m]."""
 NO_DISPLAY = (
     "view needs a display ({why}); film the scene headless with 'humanoid-ik render "
     "SCENE' instead, or run the viewer under a virtual X server (xvfb-run -a humanoid-ik "
@@ -58,18 +60,34 @@ NO_DISPLAY = (
 
 
 def mocap_model(
-    path: str | os.PathLike, names: list[str], points: NDArray[np.float64] | None = None
+    path: str | os.PathLike,
+    names: list[str],
+    points: NDArray[np.float64] | None = None,
+    chains: Sequence[Chain] = (),
+    packages: Mapping[str, Path] | None = None,
 ) -> tuple[mujoco.MjModel, list[int]]:
-    """The model at ``path`` in the default stage (framed on ``points`` too, see
+    """The model at ``path`` in the default stage (facing the robot of ``chains`` and
+    framed on ``points`` too, as a film's:
     :func:`~humanoid_ik.outputs.stage.staged_spec`) with one mocap body per target (a
-    sphere that does not collide), added through ``MjSpec``; returns it and each
-    target's mocap index."""
-    spec = staged_spec(path, points)
+    sphere that does not collide, of a film's marker radius for the reaching ``chains``:
+    :func:`~humanoid_ik.outputs.render.drawing.marker_radius`), added through
+    ``MjSpec``; returns it and each target's mocap index.
+
+    Args:
+        path: the model file.
+        names: the targets' names.
+        points: world points ``(k, 3)`` [m] the cameras also frame (the targets).
+        chains: the reaching chains, on the model of ``path``.
+        packages: ROS package folders for a URDF's ``package://`` paths.
+    """
+    compiled = chains[0].model if chains else None
+    spec = staged_spec(path, points, compiled, chains=chains, packages=packages)
+    radius = marker_radius(chains)
     for name in names:
         body = spec.worldbody.add_body(name=f"target_{name}", mocap=True)
         body.add_geom(
             type=mujoco.mjtGeom.mjGEOM_SPHERE,
-            size=[MARKER_RADIUS, 0, 0],
+            size=[radius, 0, 0],
             rgba=[1.0, 0.55, 0.0, 0.7],
             contype=0,
             conaffinity=0,
@@ -80,6 +98,19 @@ def mocap_model(
         for n in names
     ]
     return model, ids
+
+
+def scene_mocap_model(scene: Scene) -> tuple[mujoco.MjModel, list[int]]:
+    """The viewer's model of ``scene``: :func:`mocap_model` facing the robot of the
+    scene's reaching effectors, its markers sized to them as a film's are.
+
+    Raises:
+        SceneError: the scene does not fit its model.
+    """
+    chains = check_scene(scene)  # on the scene's own model
+    reaching = [c for c, e in zip(chains, scene.effectors, strict=True) if e.task == "reach"]
+    names = [t.name for t in scene.targets]
+    return mocap_model(scene.model, names, scene.target_points(), reaching, scene.packages)
 
 
 class LiveTargets:
@@ -185,7 +216,7 @@ def view_scene(
     check_display()
     import mujoco.viewer
 
-    model, mocap = mocap_model(scene.model, [t.name for t in scene.targets], scene.target_points())
+    model, mocap = scene_mocap_model(scene)
     runner = SceneRunner(scene, model)
     live = LiveTargets(runner, mocap)
     recording = runner.recording()

@@ -27,6 +27,7 @@ __all__ = [
     "POSITIVE",
     "CollisionPairs",
     "GeomGroup",
+    "LIMBS",
     "MinkOptions",
     "collision_pairs_problem",
 ]
@@ -38,6 +39,9 @@ GeomGroup = tuple[str, ...]
 """Geom names, every one of which is kept apart from every geom of the other group."""
 CollisionPairs = tuple[tuple[GeomGroup, GeomGroup], ...]
 """Pairs of geom groups kept apart."""
+LIMBS = "limbs"
+"""The ``collision_pairs`` value asking for the pairs derived from the model's limbs
+(:func:`~humanoid_ik.solvers.mink.pairs.limb_collision_pairs`)."""
 
 POSITIVE = frozenset(
     {"max_step", "max_velocity", "range_gain", "collision_gain", "detection_distance"}
@@ -45,15 +49,16 @@ POSITIVE = frozenset(
 """Options that must be > 0 (their lower bound 0 itself is refused): a step, a speed,
 a gain or a detection distance of 0 would never move or never see a pair."""
 
-_PAIRS_SHAPE = "pairs of geom-name groups, [[names], [names]]"
+_PAIRS_SHAPE = f"pairs of geom-name groups, [[names], [names]], or '{LIMBS}'"
 
 
 def collision_pairs_problem(value: Any) -> tuple[str, str, Any] | None:
     """What is wrong with ``value`` as ``collision_pairs``, or ``None`` when it fits.
 
-    The shape: a list of pairs; a pair is a list of two groups; a group is a geom name
-    or a non-empty list of geom names (non-empty strings). Names are not checked against
-    a model here (the solver does that when it is built, and a scene file when it is
+    The shape: ``"limbs"`` (:data:`LIMBS`: the pairs derived from the model's limbs),
+    or a list of pairs; a pair is a list of two groups; a group is a geom name or a
+    non-empty list of geom names (non-empty strings). Names are not checked against a
+    model here (the solver does that when it is built, and a scene file when it is
     loaded).
 
     Returns:
@@ -61,6 +66,8 @@ def collision_pairs_problem(value: Any) -> tuple[str, str, Any] | None:
         ``"[0]"``, ``"[0][1]"``, ``"[0][1][2]"``), what was expected there and the value
         found.
     """
+    if value == LIMBS:
+        return None
     if not isinstance(value, (list, tuple)):
         return "", f"a list of {_PAIRS_SHAPE}", value
     for i, pair in enumerate(value):
@@ -77,10 +84,13 @@ def collision_pairs_problem(value: Any) -> tuple[str, str, Any] | None:
     return None
 
 
-def _normalised_pairs(value: Any) -> CollisionPairs:
-    """``value`` (checked) as a tuple of pairs of tuples of names; ``None`` is none."""
+def _normalised_pairs(value: Any) -> CollisionPairs | str:
+    """``value`` (checked) as a tuple of pairs of tuples of names; ``None`` is none,
+    ``"limbs"`` stays."""
     if value is None:
         return ()
+    if value == LIMBS:
+        return LIMBS
     problem = collision_pairs_problem(value)
     if problem is not None:
         where, expected, got = problem
@@ -118,7 +128,10 @@ class MinkOptions(SolverOptions):
         collision_pairs: pairs of geom-name groups kept apart, every geom of a group
             against every geom of the other (``()``: no collision avoidance). The model's
             own geom names: nothing here knows a particular robot (the bundled scenes
-            name the bundled humanoid's pairs, ``scenes/upper_body_mink.toml``).
+            name the bundled humanoid's pairs, ``scenes/upper_body_mink.toml``); or
+            ``"limbs"``: each forearm and hand against the torso and head, hand against
+            hand, derived from the limbs found in the model
+            (:func:`~humanoid_ik.solvers.mink.pairs.limb_collision_pairs`).
         collision_gain: a pair may close this fraction of its margin over
             ``min_distance`` per step, in (0, 1].
         min_distance: the smallest distance kept between the geoms of a pair [m].
@@ -143,7 +156,7 @@ class MinkOptions(SolverOptions):
     damping: float = 1e-12
     lm_damping: float = 0.0
     range_gain: float = 0.95
-    collision_pairs: CollisionPairs = ()
+    collision_pairs: CollisionPairs | str = ()
     collision_gain: float = 0.85
     min_distance: float = 0.01
     detection_distance: float = 0.1

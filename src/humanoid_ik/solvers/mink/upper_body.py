@@ -53,7 +53,8 @@ from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import ChainError, NameNotFoundError, SolverError, TargetError, choices
 from humanoid_ik.solvers.iterate import Stall, pose_cost
-from humanoid_ik.solvers.mink.options import NAME, CollisionPairs, MinkOptions
+from humanoid_ik.solvers.mink.options import LIMBS, NAME, CollisionPairs, MinkOptions
+from humanoid_ik.solvers.mink.pairs import LimbPairs, limb_collision_pairs
 from humanoid_ik.solvers.mink.result import UpperBodyResult
 
 if TYPE_CHECKING:
@@ -84,16 +85,20 @@ class UpperBodyIK:
         hands: the hand effectors (at least one, unless there is a gaze): site names
             (chain by the path rule) or :class:`~humanoid_ik.core.chain.Chain` objects
             on the same model (custom joints or a body end effector).
-        gaze: the gaze effector (a site name or a chain), or ``None`` for no gaze.
-        gaze_axis: the gaze site's forward axis, the one aimed at the gaze target:
-            ``"x"``, ``"y"``, ``"z"`` or ``(3,)`` in the site frame; ``None`` (the
-            default) for the options' ``forward_axis``.
+        gaze: the gaze effector (a site name or a chain, whose end may be a site or a
+            body: a head limb's gaze frame, ``core/limbs.py``), or ``None`` for no gaze.
+        gaze_axis: the gaze frame's forward axis, the one aimed at the gaze target:
+            ``"x"``, ``"y"``, ``"z"`` or ``(3,)`` in that frame (a head limb's ``axis``);
+            ``None`` (the default) for the options' ``forward_axis``.
         options: a :class:`~humanoid_ik.solvers.mink.options.MinkOptions` (default: its
             defaults).
         **fields: :class:`MinkOptions` fields overriding ``options``, checked as
             ``make_solver("mink", ...)`` checks them, e.g. ``collision_pairs=[(group,
             group), ...]`` (pairs of geom-name groups kept apart, every geom of a group
-            against every geom of the other; ``()``, the default, or ``None`` for none),
+            against every geom of the other; ``()``, the default, or ``None`` for none;
+            ``"limbs"``: each forearm and hand against the torso and head and hand
+            against hand, derived from the limbs found in the model,
+            :func:`~humanoid_ik.solvers.mink.pairs.limb_collision_pairs`),
             ``max_velocity=3.0``. Used here: the task costs and gains, ``damping``,
             ``lm_damping``, ``range_gain``, the collision options, ``max_velocity``
             (:meth:`step`), ``max_step``, ``tol``, ``rot_tol``, ``max_iterations``,
@@ -110,7 +115,7 @@ class UpperBodyIK:
         ModelError, NameNotFoundError: a bad model path, site or geom name (the message
             lists the valid names).
         ChainError: no model, no effector, a chain on another model, an effector given
-            twice, a body as gaze.
+            twice.
         SolverError: a bad option.
     """
 
@@ -136,10 +141,6 @@ class UpperBodyIK:
         self.model = self._robot.model
         self._hand_chains = [self._chain(h) for h in hands]
         self._gaze_chain = None if gaze is None else self._chain(gaze)
-        if self._gaze_chain is not None and self._gaze_chain.ee_kind != "site":
-            raise ChainError(
-                f"the gaze effector must be a site, got body '{self._gaze_chain.ee_name}'"
-            )
         chains = [*self._hand_chains] + ([self._gaze_chain] if self._gaze_chain else [])
         if not chains:
             raise ChainError("UpperBodyIK needs at least one effector (hands or a gaze)")
@@ -149,8 +150,17 @@ class UpperBodyIK:
             raise ChainError(f"effector '{dup[0]}' is given twice; effectors: {', '.join(names)}")
         self.chains: dict[str, Chain] = {c.ee_name: c for c in chains}
         """The effectors' chains by effector name (hands first, then the gaze)."""
-        pairs = self.options.collision_pairs
-        self._check_geoms(pairs)
+        given = self.options.collision_pairs
+        if isinstance(given, str):  # LIMBS, the only string MinkOptions lets through
+            assert given == LIMBS
+            pairs: LimbPairs = limb_collision_pairs(self.model)
+        else:
+            self._check_geoms(given)
+            pairs = given
+        self.collision_pairs: LimbPairs = pairs
+        """The geom groups kept apart (``collision_pairs="limbs"``: those derived from
+        the model's limbs, :func:`~humanoid_ik.solvers.mink.pairs.limb_collision_pairs`;
+        geoms by name, an unnamed MJCF geom by id)."""
 
         import mink  # the first mink object: import mink and our mink modules now
         import qpsolvers
@@ -217,13 +227,14 @@ class UpperBodyIK:
         }
         self._gaze_task: GazeTask | None = None
         if self._gaze_chain is not None:
-            self._gaze_task = GazeTask(m, self._gaze_chain.ee_name, gaze_axis, cost=o.gaze_cost)
+            g = self._gaze_chain
+            self._gaze_task = GazeTask(m, g.ee_name, gaze_axis, cost=o.gaze_cost, kind=g.ee_kind)
         self.q_home = self._home()
         """``qpos`` of the ``home`` keyframe (else ``qpos0``), chain joints inside ranges."""
         self._posture = mink.PostureTask(m, cost=o.posture_cost, gain=o.posture_gain)
         self._posture.set_target(self.q_home)
 
-    def _build_limits(self, pairs: CollisionPairs) -> None:
+    def _build_limits(self, pairs: LimbPairs) -> None:
         """The velocity limit of every chain joint and the collision limit (if pairs)."""
         from humanoid_ik.solvers.mink.limits import CollisionLimit, JointVelocityLimit
 

@@ -1,4 +1,4 @@
-"""Aim a site's forward axis at a point in the world."""
+"""Aim a site's (or a body's) forward axis at a point in the world."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ __all__ = ["GazeTask"]
 
 
 class GazeTask(BufferedTask):
-    r"""Point a site's forward axis at a point in the world.
+    r"""Point a site's (or a body's) forward axis at a point in the world.
 
     With ``R`` and ``p`` the site's rotation and position, ``a`` the unit forward axis in
     the site frame and ``p*`` the target point::
@@ -27,11 +27,13 @@ class GazeTask(BufferedTask):
 
     where ``theta`` is the angle between the axis and the direction to the target and
     ``J_v``, ``J_w`` are the world-frame linear and angular Jacobians of the site
-    (``mj_jacSite``). ``df = w x f`` gives the first term; ``dd = (I - d d') dr / n``
-    with ``dr = -J_v dq`` the second. The error is mink's ``LookAtTask`` error
-    ``a - R' d`` rotated into the world frame: the same norm, hence the same gradient
-    ``J' e`` of the QP objective (the Gauss-Newton Hessians differ away from alignment);
-    this task reads the site Jacobian once and builds no Lie-group objects.
+    (``mj_jacSite``; a body's origin: ``mj_jacBody``, for a head limb whose gaze frame
+    is its head link, ``core/limbs.py``). ``df = w x f`` gives the first term;
+    ``dd = (I - d d') dr / n`` with ``dr = -J_v dq`` the second. The error is mink's
+    ``LookAtTask`` error ``a - R' d`` rotated into the world frame: the same norm, hence
+    the same gradient ``J' e`` of the QP objective (the Gauss-Newton Hessians differ away
+    from alignment); this task reads the site Jacobian once and builds no Lie-group
+    objects.
     ``e`` vanishes only when the axis points at the target (not when it points away,
     unlike ``f x d``), and has rank two: roll about the gaze line is left free.
 
@@ -40,12 +42,13 @@ class GazeTask(BufferedTask):
 
     Args:
         model: the MuJoCo model.
-        site: name of the gaze site.
+        site: name of the gaze site (of the body with ``kind="body"``).
         axis: forward axis in the site frame: ``"x"``, ``"y"``, ``"z"`` or ``(3,)``
             (normalised here).
         cost: weight of the task [1/unit of e], a scalar.
         gain: task gain ``alpha`` in [0, 1].
         lm_damping: Levenberg-Marquardt damping (see ``mink.Task``).
+        kind: ``"site"`` or ``"body"``: what ``site`` names.
 
     Raises:
         TargetError: a zero ``axis``, a bad target.
@@ -62,10 +65,13 @@ class GazeTask(BufferedTask):
         cost: float = 1.0,
         gain: float = 1.0,
         lm_damping: float = 0.0,
+        kind: str = "site",
     ):
         super().__init__(cost=np.full(3, float(cost)), gain=gain, lm_damping=lm_damping)
         self.site = site
-        self.site_id = int(model.site(site).id)
+        self.kind = kind
+        self._body = kind == "body"
+        self.site_id = int(model.body(site).id if self._body else model.site(site).id)
         self.axis = axis_vector(axis)
         """The unit forward axis ``a`` ``(3,)`` in the site frame."""
         self.target: NDArray[np.float64] | None = None
@@ -90,14 +96,14 @@ class GazeTask(BufferedTask):
         if self.target is None:
             raise mink.TargetNotSet(self.__class__.__name__)
         sid = self.site_id
-        R = d.site_xmat[sid]
+        R = (d.xmat if self._body else d.site_xmat)[sid]
         a0, a1, a2 = self.axis
         f = (
             R[0] * a0 + R[1] * a1 + R[2] * a2,
             R[3] * a0 + R[4] * a1 + R[5] * a2,
             R[6] * a0 + R[7] * a1 + R[8] * a2,
         )
-        p, t = d.site_xpos[sid], self.target
+        p, t = (d.xpos if self._body else d.site_xpos)[sid], self.target
         return f, (t[0] - p[0], t[1] - p[1], t[2] - p[2])
 
     def fill(self, configuration: mink.Configuration) -> None:
@@ -117,7 +123,10 @@ class GazeTask(BufferedTask):
         )
         M[:, 3:] = ((0.0, f2, -f1), (-f2, 0.0, f0), (f1, -f0, 0.0))  # -[f]x
         jac = self._jac
-        mujoco.mj_jacSite(m, d, jac[:3], jac[3:], self.site_id)
+        if self._body:
+            mujoco.mj_jacBody(m, d, jac[:3], jac[3:], self.site_id)
+        else:
+            mujoco.mj_jacSite(m, d, jac[:3], jac[3:], self.site_id)
         np.matmul(M, jac, out=self._J)
 
     def error(self, configuration: mink.Configuration) -> GazeError:
@@ -128,7 +137,7 @@ class GazeTask(BufferedTask):
         """
         if self.target is None:
             raise mink.TargetNotSet(self.__class__.__name__)
-        d = configuration.data
-        return gaze_error(
-            d.site_xpos[self.site_id], d.site_xmat[self.site_id], self.axis, self.target
-        )
+        d, sid = configuration.data, self.site_id
+        if self._body:
+            return gaze_error(d.xpos[sid], d.xmat[sid], self.axis, self.target)
+        return gaze_error(d.site_xpos[sid], d.site_xmat[sid], self.axis, self.target)
