@@ -8,6 +8,8 @@ import json
 import os
 import signal
 import socket
+import subprocess
+import sys
 import uuid
 
 import pytest
@@ -173,3 +175,34 @@ def test_ctrl_c_before_the_first_frame_keeps_the_previous_set(tmp_path, capsys, 
     rows = (out / "trajectory.csv").read_text().splitlines()[2:]
     assert len(rows) >= 1 and ("trajectory.csv" in names)
     assert temporaries(out) == []
+
+
+NAN_ARM = UNLIMITED_ARM.replace(
+    '<body name="fore" pos="0.3 0 0">', '<body name="fore" pos="nan 0 0">'
+)
+"""The planar arm with a NaN in its forearm's position."""
+
+
+@pytest.mark.parametrize("command", ["solve", "inspect", "bench"])
+def test_a_model_with_nan_is_refused_in_one_line_and_writes_no_log(tmp_path, command):
+    """``pos="nan 0 0"`` compiles in MuJoCo; every command refuses it in one line naming
+    the element (no ``position error nan``), MuJoCo's own warning becomes a note on
+    stderr (not stdout), and no ``MUJOCO_LOG.TXT`` is left in the current folder."""
+    model = tmp_path / "arm.xml"
+    model.write_text(NAN_ARM)
+    args = {
+        "solve": ["solve", "--model", str(model), "--site", "tip", "--target", "0.3,0.2,0"],
+        "inspect": ["inspect", "--model", str(model)],
+        "bench": ["bench", "--model", str(model), "--site", "tip", "--n", "3"],
+    }[command]
+    done = subprocess.run(
+        [sys.executable, "-m", "humanoid_ik", *args], capture_output=True, cwd=tmp_path, timeout=120
+    )
+    err = done.stderr.decode().strip().splitlines()
+    assert done.returncode == 2 and done.stdout == b"", done
+    assert err[-1] == (
+        f"humanoid-ik: error: model '{model}': body 'fore' pos is not finite (nan 0 0); "
+        "every number must be"
+    ), err
+    assert all(line.startswith("humanoid-ik: note: MuJoCo: ") for line in err[:-1]), err
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()

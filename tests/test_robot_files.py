@@ -656,3 +656,60 @@ def test_urdf_geoms_are_named_after_their_links(capsys):
     pairs = json.loads(capsys.readouterr().out)["collision_pairs"]
     assert len(pairs) == 3
     assert pairs[2] == [["left_wrist_yaw_link_collision"], ["right_wrist_yaw_link_collision"]]
+
+
+INERTIAL = (
+    '<inertial><mass value="1"/>'
+    '<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
+)
+
+
+def _three_joint_urdf(j1_limit: str, j2_extra: str = "") -> str:
+    """A planar arm of three revolute joints; ``j1``'s ``<limit>`` attributes given."""
+    links = "".join(f'<link name="{n}">{INERTIAL}</link>' for n in "abc")
+    limit = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+    return (
+        f'<robot name="r"><link name="base"/>{links}'
+        f'<joint name="j1" type="revolute"><parent link="base"/><child link="a"/>'
+        f'<axis xyz="0 0 1"/><limit {j1_limit} effort="1" velocity="1"/></joint>'
+        f'<joint name="j2" type="revolute"><parent link="a"/><child link="b"/>'
+        f'<origin xyz="0.3 0 0"/><axis xyz="0 0 1"/>{limit}{j2_extra}</joint>'
+        f'<joint name="j3" type="revolute"><parent link="b"/><child link="c"/>'
+        f'<origin xyz="0.3 0 0"/><axis xyz="0 0 1"/>{limit}</joint></robot>'
+    )
+
+
+def test_a_urdf_joint_with_lower_equal_upper_stays_locked(tmp_path):
+    """``lower = upper`` locks the joint (MuJoCo would drop the limit): it keeps its
+    value through a solve, with a note; the other joints reach the target."""
+    from humanoid_ik import solve
+
+    path = tmp_path / "r.urdf"
+    path.write_text(_three_joint_urdf('lower="0.5" upper="0.5"'))
+    with pytest.warns(
+        ModelWarning, match=r"1 joint\(s\) locked \(lower = upper in the URDF.*: 'j1' at 0.5"
+    ):
+        model = load_model(path)
+    chain = Chain(model, body="c")
+    assert chain.lower[0] == pytest.approx(0.5, abs=1e-8) and chain.upper[0] == pytest.approx(0.5)
+    target = chain.fk([0.5, 0.4, -0.3])[0]
+    result = solve(chain, target, solver="dls")
+    assert result.q[0] == pytest.approx(0.5, abs=1e-8)
+    assert np.linalg.norm(chain.fk(result.q)[0] - target) < 1e-4
+
+
+def test_a_urdf_joint_with_lower_above_upper_is_refused(tmp_path):
+    path = tmp_path / "r.urdf"
+    path.write_text(_three_joint_urdf('lower="0.5" upper="-0.5"'))
+    with pytest.raises(ModelError, match=r"joint 'j1' has lower limit 0.5 > upper -0.5; swap"):
+        load_model(path)
+
+
+def test_a_urdf_mimic_joint_is_said(tmp_path):
+    """A ``<mimic>`` becomes an equality constraint the solvers do not apply: a note."""
+    path = tmp_path / "r.urdf"
+    path.write_text(_three_joint_urdf('lower="-1" upper="1"', '<mimic joint="j1" multiplier="2"/>'))
+    with pytest.warns(
+        ModelWarning, match="1 joint\\(s\\) kept as equality constraints.*: 'j2' mimics 'j1'"
+    ):
+        load_model(path)

@@ -155,10 +155,19 @@ def _interrupts_delivered_again() -> Any:
     return hook
 
 
+def _mujoco_note(message: str) -> None:
+    """MuJoCo's own warnings (``XML contains a 'NaN'``), which it would print on stdout
+    and append to a ``MUJOCO_LOG.TXT`` in the current folder: one note line on stderr."""
+    print(f"humanoid-ik: note: MuJoCo: {message.strip()}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
-    unraisable = sys.unraisablehook
+    import mujoco
+
+    unraisable, mujoco_warning = sys.unraisablehook, mujoco.get_mju_user_warning()
     sys.unraisablehook = _interrupts_delivered_again()
+    mujoco.set_mju_user_warning(_mujoco_note)
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_notes()
@@ -166,6 +175,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _main(argv)
     finally:
         sys.unraisablehook = unraisable
+        mujoco.set_mju_user_warning(mujoco_warning)
 
 
 def _main(argv: Sequence[str] | None) -> int:

@@ -41,6 +41,7 @@ __all__ = [
     "bundled_model_path",
     "home_outside_ranges",
     "home_qpos",
+    "check_finite",
     "home_warning",
     "STAGE_CAMERAS",
     "URDF_MIN_INERTIA",
@@ -137,14 +138,17 @@ def load_model(
             paths are looked up in first (``core/robot_files.py``).
 
     Raises:
-        ModelError: the path does not exist, a mesh is not found, or MuJoCo cannot
-            compile it (MuJoCo's message is kept, with the fix for the mistakes it names).
+        ModelError: the path does not exist, a mesh is not found, MuJoCo cannot
+            compile it (MuJoCo's message is kept, with the fix for the mistakes it names),
+            or a number of its geometry, axes or ranges is not finite
+            (:func:`check_finite`).
 
     Warns:
         HomeWarning: the file's home pose has joints outside their ranges (once per
             model and process: :func:`home_warning`).
     """
     if isinstance(model, mujoco.MjModel):
+        check_finite(model, "the model")
         return model
     path = model_file(model)
     if is_robot_file(path):
@@ -154,10 +158,50 @@ def load_model(
             compiled = mujoco.MjModel.from_xml_path(str(path))
         except ValueError as exc:
             raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
+    check_finite(compiled, f"model '{path}'")
     home = home_warning(compiled)
     if home is not None:  # stacklevel 1: one place, so Python says each model once
         warnings.warn(f"model '{path}': {home}", HomeWarning, 1)
     return compiled
+
+
+_FINITE = (
+    ("body_pos", mujoco.mjtObj.mjOBJ_BODY, "body", "pos"),
+    ("body_quat", mujoco.mjtObj.mjOBJ_BODY, "body", "quat"),
+    ("body_ipos", mujoco.mjtObj.mjOBJ_BODY, "body", "inertial pos"),
+    ("jnt_pos", mujoco.mjtObj.mjOBJ_JOINT, "joint", "pos"),
+    ("jnt_axis", mujoco.mjtObj.mjOBJ_JOINT, "joint", "axis"),
+    ("jnt_range", mujoco.mjtObj.mjOBJ_JOINT, "joint", "range"),
+    ("geom_pos", mujoco.mjtObj.mjOBJ_GEOM, "geom", "pos"),
+    ("geom_size", mujoco.mjtObj.mjOBJ_GEOM, "geom", "size"),
+    ("site_pos", mujoco.mjtObj.mjOBJ_SITE, "site", "pos"),
+    ("site_quat", mujoco.mjtObj.mjOBJ_SITE, "site", "quat"),
+    ("qpos0", None, "qpos0", ""),
+    ("key_qpos", mujoco.mjtObj.mjOBJ_KEY, "keyframe", "qpos"),
+)
+"""The model arrays whose numbers must be finite: (array, object type, element, field)."""
+
+
+def check_finite(model: mujoco.MjModel, what: str) -> None:
+    """Refuse a model with a NaN or an infinity in its geometry, axes, ranges or home
+    pose (``pos="nan 0 0"`` compiles, and every solver then reports NaN errors).
+
+    Raises:
+        ModelError: one line naming the element, the field and its values.
+    """
+    for attr, objtype, element, field in _FINITE:
+        values = np.asarray(getattr(model, attr))
+        if values.size == 0 or np.isfinite(values).all():
+            continue
+        rows = values.reshape(len(values), -1)
+        row = int(np.nonzero((~np.isfinite(rows)).any(axis=1))[0][0])
+        shown = " ".join(f"{v:g}" for v in rows[row])
+        if objtype is None:
+            where = f"qpos0 [{row}]"
+        else:
+            name = mujoco.mj_id2name(model, objtype, row) or f"#{row}"
+            where = f"{element} '{name}' {field}"
+        raise ModelError(f"{what}: {where} is not finite ({shown}); every number must be")
 
 
 class HomeWarning(ModelWarning):
@@ -191,6 +235,58 @@ def model_file(model: str | os.PathLike | None) -> Path:
     if not path.is_file():
         raise ModelError(f"model file '{path}' does not exist")
     return path
+
+
+LOCKED_HALF_WIDTH = 1e-9
+"""Half the range [rad or m] a URDF joint with ``lower == upper`` keeps: it stays where
+the URDF locks it (MuJoCo would drop the limit and let it move freely)."""
+
+
+def _urdf_joint_rules(spec: mujoco.MjSpec, text: str, path: Path) -> None:
+    """What a URDF's joint limits and mimics mean, which MuJoCo's reader loses: a joint
+    whose ``lower`` and ``upper`` are given and equal is locked there (kept in a range of
+    :data:`LOCKED_HALF_WIDTH`); ``lower > upper`` is refused. Said in one note each:
+    the locked joints, the limits without ``lower``/``upper`` (the URDF's default of 0
+    would lock them; they are taken as unlimited, as their authors mean), and the
+    ``<mimic>`` joints (equality constraints in MuJoCo, which the IK solvers do not
+    apply)."""
+    import xml.etree.ElementTree as ET
+
+    joints = {j.name: j for j in spec.joints}
+    locked: list[str] = []
+    open_ended: list[str] = []
+    mimics: list[str] = []
+    for element in ET.fromstring(text).iter("joint"):
+        name, kind = element.get("name", ""), element.get("type", "")
+        limit, mimic = element.find("limit"), element.find("mimic")
+        if mimic is not None:
+            mimics.append(f"'{name}' mimics '{mimic.get('joint')}'")
+        if limit is None or kind not in ("revolute", "prismatic") or name not in joints:
+            continue
+        if limit.get("lower") is None or limit.get("upper") is None:
+            open_ended.append(f"'{name}'")
+            continue
+        try:
+            lower, upper = float(limit.get("lower", 0)), float(limit.get("upper", 0))
+        except ValueError:
+            continue  # MuJoCo's reader has said what it makes of it
+        if lower > upper:
+            raise ModelError(
+                f"model '{path}': joint '{name}' has lower limit {lower:g} > upper {upper:g}; "
+                "swap them in the URDF"
+            )
+        if lower == upper:
+            joints[name].limited = mujoco.mjtLimited.mjLIMITED_TRUE
+            joints[name].range = [lower - LOCKED_HALF_WIDTH, upper + LOCKED_HALF_WIDTH]
+            locked.append(f"'{name}' at {lower:g}")
+    for found, what in (
+        (locked, "locked (lower = upper in the URDF; give a range to let them move)"),
+        (open_ended, "without lower/upper limits: taken as unlimited"),
+        (mimics, "kept as equality constraints, which the IK solvers do not apply"),
+    ):
+        if found:
+            shown = ", ".join(found[:3]) + (f" and {len(found) - 3} more" if len(found) > 3 else "")
+            warnings.warn(f"model '{path}': {len(found)} joint(s) {what}: {shown}", ModelWarning, 3)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -238,10 +334,12 @@ def model_spec(
         except ValueError as exc:
             raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
     index = PackageIndex(path, packages)
+    text = robot_text(path, index)
     try:
-        spec = mujoco.MjSpec.from_string(robot_text(path, index))
+        spec = mujoco.MjSpec.from_string(text)
     except ValueError as exc:
         raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
+    _urdf_joint_rules(spec, text, path)
     spec.modelfiledir = str(index.folder)
     for mesh in spec.meshes:
         if mesh.file:
