@@ -566,3 +566,31 @@ def test_check_scene_of_a_python_built_scene():
     ):
         with pytest.raises(SceneError, match=message):
             check_scene(changed)
+
+
+def test_solver_table_is_the_solvers_typed_options(tmp_path):
+    """[solver] is validated into the solver's typed options object: the file's values,
+    the class's defaults for the rest; an effector's own solver too."""
+    from humanoid_ik.solvers.jacobian.dls import DLS
+
+    own = 'solver = { name = "ccd", options = { max_iterations = 7 } }'
+    sc = load_scene(write(tmp_path, GOOD.replace('target = "ball"', f'target = "ball"\n{own}')))
+    typed = sc.solver.typed
+    assert isinstance(typed, DLS.Options) and typed.restarts == 0
+    assert typed.max_iterations == DLS.Options().max_iterations
+    assert sc.effectors[0].solver.typed.max_iterations == 7
+
+
+def test_help_and_library_do_not_import_pydantic():
+    """pydantic (the file models) is loaded when a file is parsed, not by `--help`."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\nfrom humanoid_ik.cli import main\n"
+        "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+        "assert 'pydantic' not in sys.modules\n"
+        "from humanoid_ik.config.scene import load_scene\nload_scene('circle')\n"
+        "assert 'pydantic' in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)

@@ -1,6 +1,8 @@
 """A parsed scene checked against its model: the model it runs on, its chains (one robot
 state for all effectors), the solvers fit them, the camera and frame size, the sizes and
-the collision pairs. ``config/scene.py`` parses the file and calls :func:`check_scene`.
+the collision pairs. ``config/scene.py`` validates the file (``config/scene_schema.py``)
+and calls :func:`check_scene` on the values; a scene built in code is checked the same
+way, its sizes too.
 
 Every mistake raises :class:`~humanoid_ik.errors.SceneError` naming the file, the key
 and what was expected.
@@ -8,76 +10,56 @@ and what was expected.
 
 from __future__ import annotations
 
-import dataclasses
+from collections.abc import Callable
+from typing import Any
 
 import mujoco
 
 from humanoid_ik.config.specs import (
     MAX_CONTACT_SHEET,
     MAX_FPS,
-    MAX_FRAMES,
     MAX_IMAGE_SIZE,
     MAX_SNAPSHOTS,
     MAX_TRAIL,
     MIN_FPS,
     MIN_IMAGE_SIZE,
+    SIZE,
     Scene,
     SolverSpec,
+    duration_problem,
+    frame_size_ok,
     moves_several,
 )
-from humanoid_ik.config.toml import TomlReader
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.checks import check_int, check_number
 from humanoid_ik.core.models import load_model, staged_cameras
 from humanoid_ik.core.robot import Robot
-from humanoid_ik.errors import HumanoidIKError, SceneError
+from humanoid_ik.errors import HumanoidIKError, MotionError, SceneError, show_value
 from humanoid_ik.motion import MAX_KNOTS, RandomWalk
-from humanoid_ik.solvers import SOLVERS
 from humanoid_ik.solvers.mink.options import collision_pairs_problem
 
-__all__ = [
-    "RENDER_EXPECTED",
-    "check_collision_pairs",
-    "check_duration",
-    "check_scene",
-    "frame_size_ok",
-    "scene_model",
-    "takes_collision_pairs",
-]
-
-_SIZE = f"an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE} (pixels)"
-RENDER_EXPECTED = {
-    "width": _SIZE,
-    "height": _SIZE,
-    "camera": "a camera name",
-    "trail": f"a number >= 0 and <= {MAX_TRAIL:g} (seconds)",
-    "gif": "true or false",
-    "snapshots": f"a list of at most {MAX_SNAPSHOTS} times >= 0 (seconds)",
-    "contact_sheet": f"an integer >= 0 and <= {MAX_CONTACT_SHEET}",
-}
-"""What each ``[render]`` key expects, as error messages say it."""
+__all__ = ["check_collision_pairs", "check_scene", "scene_model"]
 
 
-def frame_size_ok(v: int) -> bool:
-    """An even frame width or height within :data:`MIN_IMAGE_SIZE` and
-    :data:`MAX_IMAGE_SIZE`."""
-    return MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v % 2 == 0
+class _Messages:
+    """The errors of one scene: ``scene.source: key: message``."""
 
+    def __init__(self, scene: Scene):
+        self.source = scene.source
 
-def check_duration(r: TomlReader, duration: float, fps: float) -> None:
-    """``duration x fps`` is at most :data:`MAX_FRAMES` frames."""
-    if max(1, round(duration * fps)) > MAX_FRAMES:
-        raise r.expect(
-            "duration",
-            f"a number > 0 and <= {MAX_FRAMES / fps:g} (at most {MAX_FRAMES} frames at "
-            f"{fps:g} fps)",
-            duration,
-        )
+    def fail(self, key: str, message: str) -> SceneError:
+        return SceneError(self.source, key, message)
 
+    def expect(self, key: str, what: str, got: Any) -> SceneError:
+        return self.fail(key, f"expected {what}, got {show_value(got)}")
 
-def takes_collision_pairs(solver: str) -> bool:
-    """Whether solver ``solver`` has a ``collision_pairs`` option (``mink``)."""
-    return any(f.name == "collision_pairs" for f in dataclasses.fields(SOLVERS[solver].Options))
+    def call(self, prefix: str, fn: Callable[..., Any], name: str, *args: Any, **kw: Any) -> Any:
+        """``fn(name, *args, **kw)`` (a ``check_*``), its MotionError at ``prefix.name``."""
+        try:
+            return fn(name, *args, **kw)
+        except MotionError as exc:
+            key = f"{prefix}.{exc.field}" if prefix else exc.field
+            raise self.expect(key, exc.expected, exc.got) from None
 
 
 def _solver_specs(scene: Scene) -> list[tuple[str, SolverSpec]]:
@@ -99,7 +81,7 @@ def check_collision_pairs(scene: Scene, model: mujoco.MjModel) -> None:
         SceneError: one line naming the key
             (``solver.options.collision_pairs[0][1][2]``), the name and the model's geoms.
     """
-    r = TomlReader(scene.source, SceneError)
+    r = _Messages(scene)
     geom = mujoco.mjtObj.mjOBJ_GEOM
     for key, spec in _solver_specs(scene):
         pairs = spec.options.get("collision_pairs")
@@ -118,7 +100,7 @@ def check_collision_pairs(scene: Scene, model: mujoco.MjModel) -> None:
 
 
 def _check_effector(
-    r: TomlReader,
+    r: _Messages,
     scene: Scene,
     robot: Robot,
     i: int,
@@ -172,7 +154,7 @@ def _check_effector(
     return chain
 
 
-def _check_render(r: TomlReader, scene: Scene, model: mujoco.MjModel) -> None:
+def _check_render(r: _Messages, scene: Scene, model: mujoco.MjModel) -> None:
     """The camera exists (the model's or the default stage's) and the frame fits the
     model's off-screen buffer."""
     cams = staged_cameras(model)
@@ -187,16 +169,18 @@ def _check_render(r: TomlReader, scene: Scene, model: mujoco.MjModel) -> None:
                 f"render.{k}", f"at most {lim} (the model's off-screen buffer, visual/global)", v
             )
         if not frame_size_ok(v):
-            raise r.expect(f"render.{k}", RENDER_EXPECTED[k], v)
+            raise r.expect(f"render.{k}", SIZE, v)
 
 
-def _check_sizes(r: TomlReader, scene: Scene) -> None:
+def _check_sizes(r: _Messages, scene: Scene) -> None:
     """Every size-like value within its bound (for a scene built in code; a scene file's
     values are checked as they are read): frame rate, frames, trail, contact sheet,
     snapshots, and each motion reaching the last frame."""
     fps = r.call("", check_number, "fps", scene.fps, low=MIN_FPS, high=MAX_FPS)
     duration = r.call("", check_number, "duration", scene.duration, low=0.0, strict=True)
-    check_duration(r, duration, fps)
+    too_long = duration_problem(duration, fps)
+    if too_long is not None:
+        raise r.expect("duration", too_long, duration)
     rs = scene.render
     r.call("render", check_number, "trail", rs.trail, low=0.0, high=MAX_TRAIL)
     r.call("render", check_int, "contact_sheet", rs.contact_sheet, low=0, high=MAX_CONTACT_SHEET)
@@ -248,7 +232,7 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
     Raises:
         SceneError: naming the scene file, the key and what was expected.
     """
-    r = TomlReader(scene.source, SceneError)
+    r = _Messages(scene)
     _check_sizes(r, scene)
     if model is None:
         model = scene_model(scene)

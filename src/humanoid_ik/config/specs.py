@@ -1,11 +1,15 @@
 """The values a scene file describes: the :class:`Scene` and its solver, effector and
-render specifications. :mod:`humanoid_ik.config.scene` reads them from a file and checks
-them against the model."""
+render specifications, and the bounds of a run's sizes. :mod:`humanoid_ik.config.scene`
+reads them from a file (through the typed models of ``config/scene_schema.py``) and
+:mod:`humanoid_ik.config.scene_check` checks them against the model. This module does
+not import pydantic."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -18,22 +22,28 @@ from humanoid_ik.core.models import bundled_model_path
 from humanoid_ik.errors import SceneError, show_value
 from humanoid_ik.motion import TargetTrack
 from humanoid_ik.solvers import SOLVERS, make_solver
+from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = [
     "MAX_CONTACT_SHEET",
     "MAX_FPS",
     "MAX_FRAMES",
     "MAX_IMAGE_SIZE",
+    "MAX_JOBS",
     "MAX_SNAPSHOTS",
     "MAX_TRAIL",
     "MIN_FPS",
     "MIN_IMAGE_SIZE",
+    "SIZE",
     "TASKS",
     "EffectorSpec",
     "RenderSpec",
     "Scene",
     "SolverSpec",
+    "duration_problem",
+    "frame_size_ok",
     "moves_several",
+    "takes_collision_pairs",
 ]
 
 TASKS = ("reach", "look_at")
@@ -59,17 +69,48 @@ MAX_CONTACT_SHEET = 100
 """Most thumbnails in a contact sheet."""
 MAX_SNAPSHOTS = 100
 """Most snapshot times in ``render.snapshots``."""
+MAX_JOBS = 100_000
+"""Most jobs in one sweep (sets x solver configurations x seeds)."""
+SIZE = f"an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE} (pixels)"
+"""What a frame width or height must be, as messages say it."""
+
+
+def duration_problem(duration: float, fps: float) -> str | None:
+    """What ``duration`` [s] must be at ``fps`` when ``duration x fps`` is over
+    :data:`MAX_FRAMES` frames, else ``None``."""
+    if max(1, round(duration * fps)) <= MAX_FRAMES:
+        return None
+    return f"a number > 0 and <= {MAX_FRAMES / fps:g} (at most {MAX_FRAMES} frames at {fps:g} fps)"
+
+
+def frame_size_ok(v: object) -> bool:
+    """An even integer frame width or height within :data:`MIN_IMAGE_SIZE` and
+    :data:`MAX_IMAGE_SIZE`."""
+    if isinstance(v, bool) or not isinstance(v, int):
+        return False
+    return MIN_IMAGE_SIZE <= v <= MAX_IMAGE_SIZE and v % 2 == 0
 
 
 @dataclass(frozen=True)
 class SolverSpec:
-    """A solver by name with its options (checked against the solver's own defaults)."""
+    """A solver by name with its options as given (labels, sweep job ids) and, from
+    them, its typed options object :attr:`typed`."""
 
     name: str
     options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
+
+    @cached_property
+    def typed(self) -> SolverOptions:
+        """The solver's options object (``Options.parse`` of its class: the one place
+        their defaults, bounds and messages are written).
+
+        Raises:
+            SolverError: an unknown option or a bad value.
+        """
+        return SOLVERS[self.name].Options.parse(self.name, self.options)
 
     def make(self):
         """A fresh solver object (:func:`humanoid_ik.solvers.make_solver`)."""
@@ -287,6 +328,14 @@ class Scene:
             gif=r.gif if gif is None else gif,
         )
         return replace(out, render=r)
+
+
+def takes_collision_pairs(solver: str) -> bool:
+    """Whether solver ``solver`` has a ``collision_pairs`` option (``mink``)."""
+    cls = SOLVERS.get(solver)
+    return cls is not None and any(
+        f.name == "collision_pairs" for f in dataclasses.fields(cls.Options)
+    )
 
 
 def moves_several(solver_name: str) -> bool:

@@ -39,25 +39,21 @@ what was expected, e.g. ``sweeps/x.toml: seeds[1]: expected an integer >= 0, got
 from __future__ import annotations
 
 import hashlib
-import itertools
 import json
-import math
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from humanoid_ik.config.scene import Scene, find_scene, frames_limit, load_scene
-from humanoid_ik.config.toml import NAME, TomlReader, display_path, read_toml
+from humanoid_ik.config.specs import MAX_JOBS
+from humanoid_ik.config.toml import display_path, integer_problem, read_toml
 from humanoid_ik.core.chain import DEFAULT_SITE, Chain
-from humanoid_ik.core.checks import MAX_TARGETS
 from humanoid_ik.core.model_files import model_digest, model_files
 from humanoid_ik.core.models import bundled_model_path, load_model
-from humanoid_ik.core.types import TARGET_KINDS
 from humanoid_ik.errors import HumanoidIKError, SweepError, show_value
 from humanoid_ik.motion import RandomWalk
-from humanoid_ik.solvers import SOLVERS, make_solver
 
 __all__ = [
     "KINDS",
@@ -74,8 +70,6 @@ __all__ = [
 
 KINDS = ("scene", "targets")
 """What a job solves: a scene run, or a seeded target set."""
-MAX_JOBS = 100_000
-"""Most jobs in one sweep (sets x solver configurations x seeds)."""
 
 
 # ----------------------------------------------------------------------------- values
@@ -192,88 +186,6 @@ class Sweep:
     source: str = ""
 
 
-# ----------------------------------------------------------------------------- parsing
-_TOP = {
-    "name": NAME,
-    "description": "a string",
-    "seeds": "a non-empty list of integers >= 0",
-    "solvers": "a non-empty list of solver names or tables [[solvers]] with name",
-    "scenes": "a list of tables [[scenes]] with scene",
-    "targets": "a list of tables [[targets]] with name and n",
-    "package_path": 'a table of ROS package folders, NAME = "DIR" (relative to the file)',
-}
-_SOLVER = {
-    "name": "a solver name",
-    "options": "a table of solver options",
-    "grid": "a table of option name -> non-empty list of values",
-}
-_SCENE = {"scene": "a bundled scene's name or a scene file", "frames": "an integer >= 1"}
-_TARGETS = {
-    "name": NAME,
-    "task": "one of 'position', 'pose'",
-    "n": "an integer >= 1",
-    "site": "a site name",
-    "body": "a body name (instead of site)",
-    "model": "an MJCF or URDF path (relative to the sweep file)",
-    "joints": "a list of joint names",
-}
-
-
-def _solver_configs(r: TomlReader, doc: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:
-    """Every solver configuration ``(name, options)``: each option grid expanded, each
-    combination tried on the solver's constructor."""
-    entries = r.array("solvers", doc, _TOP["solvers"])
-    if not entries:
-        raise r.expect("solvers", _TOP["solvers"], doc.get("solvers", []))
-    configs: list[tuple[str, dict[str, Any]]] = []
-    for i, entry in enumerate(entries):
-        key = f"solvers[{i}]"
-        if isinstance(entry, str):
-            entry = {"name": entry}
-        tbl = r.keys(key, entry, _SOLVER, required=("name",))
-        name = tbl["name"]
-        if not isinstance(name, str) or name not in SOLVERS:
-            raise r.expect(f"{key}.name", f"one of {', '.join(SOLVERS)}", name)
-        options = tbl.get("options", {})
-        if not isinstance(options, dict):
-            raise r.expect(f"{key}.options", _SOLVER["options"], options)
-        grid = tbl.get("grid", {})
-        if not isinstance(grid, dict):
-            raise r.expect(f"{key}.grid", _SOLVER["grid"], grid)
-        for opt, values in grid.items():
-            if not isinstance(values, list) or not values:
-                raise r.expect(f"{key}.grid.{opt}", "a non-empty list of values", values)
-            if opt in options:
-                raise r.fail(f"{key}.grid.{opt}", "also given in options; give it in one place")
-        axes = [[(opt, v) for v in values] for opt, values in grid.items()]
-        if math.prod(len(a) for a in axes) + len(configs) > MAX_JOBS:
-            raise r.fail(
-                f"{key}.grid", f"expected at most {MAX_JOBS} configurations (one job each)"
-            )
-        for combo in itertools.product(*axes):
-            opts = {**options, **dict(combo)}
-            try:
-                make_solver(name, **opts)
-            except HumanoidIKError as exc:
-                bad = next((k for k, _ in combo if f"'{k}'" in str(exc)), None)
-                where = f"{key}.grid.{bad}" if bad else f"{key}.options"
-                raise r.fail(where, str(exc)) from None
-            configs.append((name, opts))
-    return configs
-
-
-def _seeds(r: TomlReader, doc: Mapping[str, Any]) -> list[int]:
-    """The seeds: distinct integers >= 0 (default ``[0]``)."""
-    seeds = doc.get("seeds", [0])
-    if not isinstance(seeds, list) or not seeds:
-        raise r.expect("seeds", _TOP["seeds"], seeds)
-    out = [r.integer(f"seeds[{i}]", s, 0) for i, s in enumerate(seeds)]
-    for i, s in enumerate(out):
-        if s in out[:i]:
-            raise r.fail(f"seeds[{i}]", f"seed {s} given twice")
-    return out
-
-
 def _has_random_motion(scene: Scene) -> bool:
     """True when a seed changes the scene: it has a ``random_walk`` motion."""
     return any(isinstance(t.motion, RandomWalk) for t in scene.targets)
@@ -295,28 +207,26 @@ def scene_digest(path: str | os.PathLike) -> str:
 
 
 def _scene_sets(
-    r: TomlReader, doc: Mapping[str, Any], base: Path, packages: Mapping[str, Path]
+    fail: Callable[[str, str], SweepError],
+    entries: list[Any],
+    base: Path,
+    packages: Mapping[str, Path],
 ) -> list[dict[str, Any]]:
     """One set per ``[[scenes]]`` entry, its scene loaded and checked now (``packages``
     over the scene file's own ``package_path``)."""
     out = []
-    for i, entry in enumerate(r.array("scenes", doc, _TOP["scenes"])):
+    for i, entry in enumerate(entries):
         key = f"scenes[{i}]"
-        if isinstance(entry, str):
-            entry = {"scene": entry}
-        tbl = r.keys(key, entry, _SCENE, required=("scene",))
-        ref = tbl["scene"]
-        if not isinstance(ref, str) or not ref:
-            raise r.expect(f"{key}.scene", _SCENE["scene"], ref)
-        rel = base / ref
+        rel = base / entry.scene
         try:
-            path = find_scene(rel if rel.is_file() else ref)
+            path = find_scene(rel if rel.is_file() else entry.scene)
             scene = load_scene(path, packages=packages)
         except HumanoidIKError as exc:
-            raise r.fail(f"{key}.scene", str(exc)) from None
-        frames = tbl.get("frames")
-        if frames is not None:
-            frames = r.integer(f"{key}.frames", frames, 1, frames_limit(scene))
+            raise fail(f"{key}.scene", str(exc)) from None
+        frames = entry.frames
+        what = None if frames is None else integer_problem(frames, 1, frames_limit(scene))
+        if what is not None:
+            raise fail(f"{key}.frames", f"expected {what}, got {show_value(frames)}")
         out.append(
             {
                 "kind": "scene",
@@ -334,59 +244,39 @@ def _scene_sets(
 
 
 def _target_sets(
-    r: TomlReader, doc: Mapping[str, Any], base: Path, packages: Mapping[str, Path]
+    fail: Callable[[str, str], SweepError],
+    entries: list[Any],
+    base: Path,
+    packages: Mapping[str, Path],
 ) -> list[dict[str, Any]]:
     """One set per ``[[targets]]`` entry, its chain built once to check it (the model
     loaded with ``packages``)."""
     out = []
-    for i, entry in enumerate(r.array("targets", doc, _TOP["targets"])):
+    for i, t in enumerate(entries):
         key = f"targets[{i}]"
-        tbl = r.keys(key, entry, _TARGETS, required=("name", "n"))
-        name = r.name(f"{key}.name", tbl["name"])
-        n = r.integer(f"{key}.n", tbl["n"], 1, MAX_TARGETS)
-        task = tbl.get("task", "pose")
-        if task not in TARGET_KINDS:
-            raise r.expect(f"{key}.task", _TARGETS["task"], task)
-        if "site" in tbl and "body" in tbl:
-            raise r.fail(f"{key}.body", "expected a site or a body, not both")
-        body = tbl.get("body")
-        if body is not None and (not isinstance(body, str) or not body):
-            raise r.expect(f"{key}.body", _TARGETS["body"], body)
-        site = tbl.get("site", DEFAULT_SITE if body is None else None)
-        if body is None and (not isinstance(site, str) or not site):
-            raise r.expect(f"{key}.site", _TARGETS["site"], site)
-        model = tbl.get("model")
-        if model is not None and (not isinstance(model, str) or not model):
-            raise r.expect(f"{key}.model", _TARGETS["model"], model)
-        joints = tbl.get("joints")
-        if joints is not None and (
-            not isinstance(joints, list)
-            or not joints
-            or not all(isinstance(j, str) and j for j in joints)
-        ):
-            raise r.expect(f"{key}.joints", _TARGETS["joints"], joints)
-        location = bundled_model_path() if model is None else (base / model).resolve()
+        site = DEFAULT_SITE if t.site is None and t.body is None else t.site
+        location = bundled_model_path() if t.model is None else (base / t.model).resolve()
         try:
-            Chain(load_model(location, packages=packages), site, joints, body=body)
+            Chain(load_model(location, packages=packages), site, t.joints, body=t.body)
         except HumanoidIKError as exc:
             kind = getattr(exc, "kind", "")
             sub = {"site": "site", "body": "body", "joint": "joints"}.get(
-                kind, "model" if model else ""
+                kind, "model" if t.model else ""
             )
-            raise r.fail(f"{key}.{sub}" if sub else key, str(exc)) from None
+            raise fail(f"{key}.{sub}" if sub else key, str(exc)) from None
         out.append(
             {
                 "kind": "targets",
-                "name": name,
+                "name": t.name,
                 "params": {
-                    "task": task,
-                    "n": n,
+                    "task": t.task,
+                    "n": t.n,
                     "site": site,
-                    "joints": joints,
-                    "model": model,
+                    "joints": t.joints,
+                    "model": t.model,
                     "model_sha256": model_digest(location, packages=packages),
                     # only when given, so the ids of site target sets stay as they were
-                    **({} if body is None else {"body": body}),
+                    **({} if t.body is None else {"body": t.body}),
                 },
                 "location": str(location),
                 "seeded": True,
@@ -396,7 +286,8 @@ def _target_sets(
 
 
 def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -> Sweep:
-    """A :class:`Sweep` from a parsed TOML document.
+    """A :class:`Sweep` from a parsed TOML document, validated by the typed model of
+    ``config/sweep_schema.py``; the scenes and models it names are loaded and checked.
 
     Args:
         doc: the document.
@@ -406,27 +297,29 @@ def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -
     Raises:
         SweepError: any bad value, naming the key and what was expected.
     """
-    r = TomlReader(source, SweepError)
+    from humanoid_ik.config.schema import validate
+    from humanoid_ik.config.sweep_schema import SweepFile
+
     base = Path(".") if base is None else base
-    r.keys("", doc, _TOP, required=("solvers",))
-    name = r.name("name", doc.get("name", Path(source).stem or "sweep"))
-    description = doc.get("description", "")
-    if not isinstance(description, str):
-        raise r.expect("description", _TOP["description"], description)
-    seeds = _seeds(r, doc)
-    packages = r.package_paths("package_path", doc.get("package_path", {}), base)
-    configs = _solver_configs(r, doc)
-    sets = _scene_sets(r, doc, base, packages) + _target_sets(r, doc, base, packages)
-    if not sets:
-        raise r.fail("scenes", "no scenes and no targets; give [[scenes]] or [[targets]]")
+    doc = {"name": Path(source).stem or "sweep", **doc}
+    f = validate(SweepFile, doc, source, SweepError, base=base)
+
+    def fail(key: str, message: str) -> SweepError:
+        return SweepError(source, key, message.replace("\r", "\\r").replace("\n", "\\n"))
+
+    packages = f.package_path
+    seeds, configs = f.seeds, f.configs
+    sets = _scene_sets(fail, f.scenes, base, packages) + _target_sets(
+        fail, f.targets, base, packages
+    )
     count = sum(len(configs) * (len(seeds) if s["seeded"] else 1) for s in sets)
     if count > MAX_JOBS:
-        raise r.fail(
+        raise fail(
             "", f"expected at most {MAX_JOBS} jobs (sets x configurations x seeds), got {count}"
         )
     jobs: list[Job] = []
     for s in sets:
-        for solver, opts in configs:
+        for spec in configs:
             for seed in seeds if s["seeded"] else [None]:
                 params = dict(s["params"])
                 if s["kind"] == "scene" and seed is not None:
@@ -434,8 +327,8 @@ def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -
                 job = Job(
                     s["kind"],
                     s["name"],
-                    solver,
-                    _frozen(opts),
+                    spec.name,
+                    _frozen(dict(spec.options)),
                     seed,
                     _frozen(params),
                     location=s["location"],
@@ -445,11 +338,11 @@ def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -
     seen: dict[str, int] = {}
     for k, job in enumerate(jobs):
         if job.id in seen:
-            raise r.fail(
+            raise fail(
                 "", f"job {job.describe()} appears twice (a scene, target set or solver repeated)"
             )
         seen[job.id] = k
-    return Sweep(name, tuple(jobs), description, source)
+    return Sweep(f.name, tuple(jobs), f.description, source)
 
 
 def load_sweep(path: str | os.PathLike) -> Sweep:

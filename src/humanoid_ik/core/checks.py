@@ -2,9 +2,9 @@
 
 Each ``check_*`` returns the converted value or raises
 :class:`~humanoid_ik.errors.MotionError` ``(field, expected, got)``. The motions'
-constructors call them on their parameters, and the TOML reader
-(:class:`~humanoid_ik.config.toml.TomlReader`) calls them on file values, turning the
-error into a :class:`~humanoid_ik.errors.SceneError` that names the file and the key.
+constructors call them on their parameters, and the typed models of scene and sweep
+files (``config/schema.py``) call them on file values, turning the error into a
+:class:`~humanoid_ik.errors.SceneError` that names the file and the key.
 
 Size-like values have explicit upper bounds, named in the error (``docs/limits.md``
 lists every bound of the package): :data:`MAX_POINTS` here for a motion's points,
