@@ -22,6 +22,7 @@ from humanoid_ik.config.scene import (
     display_path,
     find_scene,
     load_scene,
+    scene_model,
 )
 from humanoid_ik.errors import SceneError
 from humanoid_ik.motion import MOTIONS, RandomWalk
@@ -390,19 +391,20 @@ def test_collisions_true_points_to_collision_pairs(tmp_path):
 
 def test_bundled_mink_scene_names_its_collision_pairs():
     """upper_body_mink keeps the humanoid's forearms and hands off torso, chest and head
-    and the hands apart: its solver options name those pairs, the scene loads, and the
-    solver keeps 13 geom pairs."""
-    from humanoid_ik.solvers.mink import MinkOptions
+    and the hands apart: its solver options derive those pairs from the limbs
+    (``"limbs"``), the scene loads, and the solver keeps 13 geom pairs."""
+    from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
 
     scene = load_scene(bundled_scenes_dir() / "upper_body_mink.toml")
-    assert scene.solver.name == "mink"
-    pairs = MinkOptions(collision_pairs=scene.solver.options["collision_pairs"]).collision_pairs
+    assert scene.solver.name == "mink" and scene.solver.options["collision_pairs"] == "limbs"
+    pairs = limb_collision_pairs(scene_model(scene))
     body = ("torso_collision", "chest_collision", "head_collision")
-    assert pairs == (
-        (("right_forearm_collision", "right_hand_collision"), body),
-        (("left_forearm_collision", "left_hand_collision"), body),
-        (("right_hand_collision",), ("left_hand_collision",)),
-    )
+    as_sets = {(frozenset(a), frozenset(b)) for a, b in pairs}
+    assert len(pairs) == 3 and as_sets == {
+        (frozenset(("right_forearm_collision", "right_hand_collision")), frozenset(body)),
+        (frozenset(("left_forearm_collision", "left_hand_collision")), frozenset(body)),
+        (frozenset(("left_hand_collision",)), frozenset(("right_hand_collision",))),
+    }
     from humanoid_ik.core.types import EffectorGoal
 
     chains = check_scene(scene)

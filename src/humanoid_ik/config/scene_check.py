@@ -85,8 +85,8 @@ def check_collision_pairs(scene: Scene, model: mujoco.MjModel) -> None:
     geom = mujoco.mjtObj.mjOBJ_GEOM
     for key, spec in _solver_specs(scene):
         pairs = spec.options.get("collision_pairs")
-        if not pairs or collision_pairs_problem(pairs) is not None:
-            continue  # none, or a shape the solver refuses with its own message
+        if not pairs or isinstance(pairs, str) or collision_pairs_problem(pairs) is not None:
+            continue  # none, "limbs" (derived), or a shape the solver refuses itself
         for i, pair in enumerate(pairs):
             for k, group in enumerate(pair):
                 one = isinstance(group, str)
