@@ -53,7 +53,7 @@ from setuptools.command.build_ext import build_ext
 from setuptools.command.build_py import build_py
 from setuptools.errors import CCompilerError, ExecError, PlatformError
 
-BUNDLED = ("models", "scenes", "sweeps")
+BUNDLED = ("models", "scenes", "sweeps", "motions")
 """Top-level folders shipped inside the package, under ``humanoid_ik/_bundled/``."""
 
 NO_COMPILER = (

@@ -97,8 +97,8 @@ def test_bench_errors():
     chain = Chain()
     with pytest.raises(SolverError, match="task 'orientation' unknown; tasks: pose, position"):
         run_bench(chain, "orientation")
-    with pytest.raises(SolverError, match="solver 'fabrik' unknown; solvers: "):
-        run_bench(chain, solvers=["fabrik"])
+    with pytest.raises(SolverError, match="solver 'nosuch' unknown; solvers: "):
+        run_bench(chain, solvers=["nosuch"])
     with pytest.raises(SolverError, match="n must be an integer >= 1 and <= 1000000, got 0"):
         run_bench(chain, n=0)
     with pytest.raises(SolverError, match="n must be an integer >= 1 and <= 1000000, got 10000001"):

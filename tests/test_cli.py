@@ -117,7 +117,7 @@ def test_bench_writes_json(tmp_path, capsys):
         (["solve", "--target", "a,b,c"], "is not 3 comma-separated numbers"),
         (["solve", "--target", "nan,0,1"], "not finite"),
         (["solve", "--target", "0,0,1", "--quat", "0,0,0,0"], "zero norm"),
-        (["solve", "--target", "0,0,1", "--solver", "fabrik"], "invalid choice: 'fabrik'"),
+        (["solve", "--target", "0,0,1", "--solver", "nosuch"], "invalid choice: 'nosuch'"),
         (["solve", "--target", "0,0,1", "--site", "hand"], "site 'hand' not in model; sites:"),
         (["solve", "--target", "0,0,1", "--joints", "knee"], "joint 'knee' not in model"),
         (["solve", "--target", "0,0,1", "--model", "nope.xml"], "model file 'nope.xml' does not"),

@@ -95,7 +95,7 @@ def test_bundled_folders_of_a_checkout():
     for kind in BUNDLED_KINDS:
         assert bundled_dir(kind).resolve() == (REPO / kind).resolve()
     assert display_model(None) == "models/humanoid/scene.xml"
-    with pytest.raises(humanoid_ik.ModelError, match="folders: models, scenes, sweeps"):
+    with pytest.raises(humanoid_ik.ModelError, match="folders: models, scenes, sweeps, motions"):
         bundled_dir("renders")
 
 
@@ -113,7 +113,7 @@ def _clean_copy(dest: Path) -> Path:
     return dest
 
 
-BUNDLED = ("models", "scenes", "sweeps")
+BUNDLED = ("models", "scenes", "sweeps", "motions")
 
 
 @pytest.fixture(scope="module")
@@ -138,7 +138,7 @@ def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 
 @pytest.mark.slow
 def test_wheel_carries_and_finds_its_bundled_files(tmp_path, built):
-    """The wheel holds models/, scenes/, sweeps/ under humanoid_ik/_bundled/; unpacked
+    """The wheel holds models/, scenes/, sweeps/, motions/ under humanoid_ik/_bundled/; unpacked
     outside the checkout, the package reads them through importlib.resources: scenes
     lists the bundled scenes and solve uses the humanoid."""
     _sdist, wheel = built
@@ -150,12 +150,18 @@ def test_wheel_carries_and_finds_its_bundled_files(tmp_path, built):
         "models/humanoid/humanoid.xml",
         "scenes/circle.toml",
         "sweeps/compare_solvers.toml",
+        "motions/reach_cmu.bvh",
     ):
         assert f"humanoid_ik/_bundled/{f}" in names
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     env = {**os.environ, "PYTHONPATH": str(tmp_path / "site")}
-    for key in ("HUMANOID_IK_MODELS", "HUMANOID_IK_SCENES", "HUMANOID_IK_SWEEPS"):
+    for key in (
+        "HUMANOID_IK_MODELS",
+        "HUMANOID_IK_SCENES",
+        "HUMANOID_IK_SWEEPS",
+        "HUMANOID_IK_MOTIONS",
+    ):
         env.pop(key, None)
 
     def run(*args: str) -> subprocess.CompletedProcess:

@@ -72,7 +72,7 @@ SWITCH_INTERVAL_S = 1e-5
 """The interpreter's thread switch interval during the two-thread tests [s] (default
 5e-3): threads swap many times inside every solve, so a state shared by mistake shows
 in few solves."""
-THREAD_SOLVES = {"jacobian_transpose": 10, "mink": 20, "ccd": 20}
+THREAD_SOLVES = {"jacobian_transpose": 10, "mink": 20, "ccd": 20, "fabrik": 20}
 """Solves per thread of the slow solvers (the others: 100)."""
 
 

@@ -133,6 +133,23 @@ class TrajectoryFileError(HumanoidIKError, ValueError):
     or exported on (other joints, another model file's digest)."""
 
 
+class BVHError(HumanoidIKError, ValueError):
+    """A BVH file that cannot be read: a syntax error (the message names the line and
+    what was expected there), a bad conversion option or an unknown joint name.
+
+    Attributes:
+        path: the file as the caller named it (``"<text>"`` for a string).
+        line: the line number of the error (1 for the first line; 0 when no line is to
+            blame).
+    """
+
+    def __init__(self, path: object, line: int, message: str):
+        self.path = str(path)
+        self.line = line
+        where = f"{self.path}: line {line}" if line else self.path
+        super().__init__(f"{where}: {message}")
+
+
 def __getattr__(name: str) -> Any:
     if name == "TrajectoryError":
         warnings.warn(

@@ -63,7 +63,7 @@ HOME_KEY = "home"
 _BUNDLED_PACKAGE = "humanoid_ik"
 _BUNDLED_FOLDER = "_bundled"
 _CHECKOUT_ROOT = Path(__file__).resolve().parents[3]
-BUNDLED_KINDS = ("models", "scenes", "sweeps")
+BUNDLED_KINDS = ("models", "scenes", "sweeps", "motions")
 """The bundled folders: the repository's top-level ``models/``, ``scenes/`` and
 ``sweeps/``, shipped in a wheel as ``humanoid_ik/_bundled/<kind>/`` (``setup.py``)."""
 
@@ -89,9 +89,9 @@ def _bundled_root() -> Path:
 
 
 def bundled_dir(kind: str) -> Path:
-    """The folder of bundled ``models``, ``scenes`` or ``sweeps``.
+    """The folder of bundled ``models``, ``scenes``, ``sweeps`` or ``motions`` (BVH clips).
 
-    ``HUMANOID_IK_MODELS`` / ``HUMANOID_IK_SCENES`` / ``HUMANOID_IK_SWEEPS`` override it.
+    ``HUMANOID_IK_MODELS`` / ``_SCENES`` / ``_SWEEPS`` / ``_MOTIONS`` override it.
 
     Raises:
         ModelError: ``kind`` is not one of :data:`BUNDLED_KINDS`.

@@ -22,6 +22,7 @@ from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.ccd import CCD
+from humanoid_ik.solvers.fabrik import FABRIK
 from humanoid_ik.solvers.jacobian.dls import DLS
 from humanoid_ik.solvers.jacobian.lm import LM
 from humanoid_ik.solvers.jacobian.pseudoinverse import PseudoInverse
@@ -37,6 +38,7 @@ SOLVERS: dict[str, type[Solver]] = {
         Auto,
         TwoLink,
         CCD,
+        FABRIK,
         JacobianTranspose,
         PseudoInverse,
         DLS,
