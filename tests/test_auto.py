@@ -22,27 +22,32 @@ from .test_solvers import ROBOT
 
 
 @pytest.mark.parametrize(
-    ("make", "second", "pose"),
+    ("make", "position", "second", "pose"),
     [
-        (lambda: Chain(), "closed_form", "closed_form"),
-        (lambda: Chain(ROBOT, "right_hand_site"), None, "lm"),  # waist + 7 hinges
-        (lambda: fixture("planar_arm", riding=False), "two_link", "lm"),
-        (lambda: fixture("three_hinge_arm", riding=False), "two_link", "lm"),
-        (lambda: fixture("three_hinge_arm"), None, "lm"),  # a wrist rides after the elbow
-        (lambda: chain(CCD_XML, "p3"), "two_link", "lm"),
+        (lambda: Chain(), "lm", "closed_form", "closed_form"),
+        (lambda: Chain(ROBOT, "right_hand_site"), "lm", None, "lm"),  # waist + 7 hinges
+        (lambda: Chain(site="right_wrist_site"), "two_link", None, "closed_form"),
+        (lambda: fixture("planar_arm", riding=False), "two_link", None, "lm"),
+        (lambda: fixture("three_hinge_arm", riding=False), "two_link", None, "lm"),
+        (lambda: fixture("three_hinge_arm"), "lm", None, "lm"),  # a wrist rides after the elbow
+        (lambda: chain(CCD_XML, "p3"), "two_link", None, "lm"),
     ],
 )
-def test_choice_per_chain_and_task(make, second, pose):
+def test_choice_per_chain_and_task(make, position, second, pose):
     """Pose targets: closed_form where the chain is shoulder-elbow-wrist, else lm.
-    Position targets: lm, and after its miss closed_form, else two_link on a chain it
-    places whole, else nothing. The choice depends on the chain and task alone."""
+    Position targets: two_link where it places the end frame wherever the chain can (no
+    joint after the elbow, or an end frame on the wrist's axes: the bundled arm's wrist
+    site), else lm, and after lm's miss closed_form where it applies. The choice depends
+    on the chain and task alone, and says why."""
     c = make()
     auto = make_solver("auto")
-    assert auto.choice(c, False).name == "lm"
+    assert auto.choice(c, False).name == position
     assert auto.choice(c, True).name == pose
     got = auto.second_opinion(c)
     assert (got.name if got is not None else None) == second
     assert make_solver("auto").choice(c, True).name == pose  # another object, the same
+    assert auto.reason(c, False).endswith(": exact") == (position != "lm")
+    assert auto.reason(c, True).endswith(": exact") == (pose != "lm")
 
 
 @pytest.mark.parametrize("pose", [False, True])

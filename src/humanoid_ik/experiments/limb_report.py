@@ -1,5 +1,7 @@
 """The limbs part of ``inspect``: each limb found (``core/limbs.py``) with its joints,
-its end frame, and which solver ``auto`` runs on it for pose targets and why; then the
+its end frame, which solver ``auto`` runs on it for pose and position targets and why,
+and the exact solvers listed as applying only where they reach every target the limb
+reaches (``two_link`` holding a wrist that moves the hand is not); then the
 collision pairs the mink solver derives from them (``collision_pairs = "limbs"``,
 ``solvers/mink/pairs.py``), by geom name."""
 
@@ -13,6 +15,7 @@ from humanoid_ik.core.limbs import Profile, limb_chain
 from humanoid_ik.errors import HumanoidIKError
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.two_link import TwoLink
+from humanoid_ik.solvers.analytic.two_link.geometry import limb_cache
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
 
@@ -30,8 +33,11 @@ class LimbInfo:
             legs).
         auto: the solver ``auto`` runs first on the limb for pose targets (``""`` where
             the limb is not reached with).
-        exact: per exact solver (``closed_form``, ``two_link``), ``None`` where it
-            applies, else why not.
+        auto_position: the same for position targets.
+        why: why ``auto`` runs those, ``{"pose": ..., "position": ...}``.
+        exact: per exact solver (``closed_form`` for pose targets, ``two_link`` for
+            position targets), ``None`` where it applies and reaches every target the
+            limb reaches, else why not.
         source: how it was found (``names``, ``geometry``, ``tree``, ``profile``).
     """
 
@@ -39,6 +45,8 @@ class LimbInfo:
     joints: tuple[str, ...]
     end: str
     auto: str
+    auto_position: str
+    why: dict[str, str]
     exact: dict[str, str | None]
     source: str
 
@@ -49,19 +57,23 @@ def limb_infos(model: mujoco.MjModel, profile: Profile) -> tuple[LimbInfo, ...]:
     auto = Auto()
     for limb in profile.limbs.values():
         end = f"{limb.frame} {limb.frame_name}" if limb.frame else ""
-        chosen, exact = "", dict[str, str | None]()
+        chosen, why, exact = ["", ""], dict[str, str](), dict[str, str | None]()
         if limb.frame and limb.joints and limb.name != "head":
             try:
                 chain = limb_chain(model, limb.name, profile=profile)
             except HumanoidIKError as exc:
                 exact = {"chain": str(exc)}
             else:
-                chosen = auto.choice(chain, True).name
+                for i, task in enumerate(("pose", "position")):
+                    chosen[i] = auto.choice(chain, i == 0).name
+                    why[task] = auto.reason(chain, i == 0)
                 exact = {
                     "closed_form": ClosedForm().applicable(chain, True),
-                    "two_link": TwoLink().applicable(chain, False),
+                    "two_link": TwoLink().applicable(chain, False) or limb_cache(chain).held,
                 }
-        out.append(LimbInfo(limb.name, limb.joints, end, chosen, exact, limb.source))
+        out.append(
+            LimbInfo(limb.name, limb.joints, end, chosen[0], chosen[1], why, exact, limb.source)
+        )
     return tuple(out)
 
 
@@ -82,7 +94,11 @@ def limb_lines(limbs: tuple[LimbInfo, ...], notes: tuple[str, ...] = ()) -> list
         end = f" -> {lb.end}" if lb.end else ""
         out.append(f"  {lb.name:<{width}}  {joints}{end}")
         if lb.auto:
-            out.append(f"  {'':<{width}}  pose targets: auto runs {lb.auto}")
+            out.append(f"  {'':<{width}}  pose targets: auto runs {lb.auto} ({lb.why['pose']})")
+            out.append(
+                f"  {'':<{width}}  position targets: auto runs {lb.auto_position} "
+                f"({lb.why['position']})"
+            )
             for solver, why in lb.exact.items():
                 task = "pose" if solver == "closed_form" else "position"
                 state = f"applies (exact, {task} targets)" if why is None else f"no: {why}"

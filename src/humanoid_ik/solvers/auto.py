@@ -1,27 +1,34 @@
-"""``auto``: the fastest solver that applies to the chain and task, and a second opinion
-after a miss.
+"""``auto``: an exact solver where one applies to the chain and task, else ``lm``, and a
+second opinion after a miss.
 
-The choice depends on the chain and the target only (measured in ``docs/lm.md``):
+The choice depends on the chain and the target only (measured on real arms in
+``docs/benchmarks.md``, "Exact solvers on real arms"); "meet" is within
+:data:`~humanoid_ik.solvers.analytic.closed_form.geometry.MEET_TOL`:
 
 - a pose target: ``closed_form`` where the chain is a spherical shoulder, an elbow and
-  a spherical wrist (its :meth:`~humanoid_ik.solvers.base.Solver.applicable`): exact,
-  one pass, the tightest tail; else ``lm``;
-- a position target: ``lm``: the lowest median and mean CPU time per solve on every
-  arm measured, at full success, where the closed forms miss 2-6 % of reachable
-  targets (they keep the wrist where it was).
+  a spherical wrist (three shoulder axes and three wrist axes that meet: Romeo, iCub,
+  the bundled humanoid): exact, one pass, every pose in the ranges; else ``lm``;
+- a position target: ``two_link`` where it places the end frame wherever the chain can:
+  shoulder axes that meet (or a planar shoulder), an elbow, and nothing after the elbow
+  that moves the end frame (no wrist, as on a 4-joint H1-like arm, or an end frame on
+  the wrist's axes, as iCub's hand); else ``lm``: the lowest CPU time per solve at full
+  success on every arm measured, where the closed forms hold the wrist and miss
+  reachable targets (Romeo: 10 %, Kinova: 64 %). Where the shoulder axes nearly meet
+  (H1's pass 9 mm from one point), ``two_link`` on the nearest spherical arm as a start
+  for an ``lm`` polish was measured: slower than ``lm`` alone at the same success, so
+  it is not used.
 
-A position target ``lm`` misses goes to a second opinion where one applies:
-``closed_form`` as above, else ``two_link`` on a chain it places whole (shoulder and
-elbow hinges, no joint after the elbow); their answer to a target beyond reach is the
-arm stretched towards it, with the status ``unreachable``. The closer of the two answers
-is returned. A pose target ``closed_form`` calls unreachable is unreachable within the
-ranges (the closed form is complete), so it is returned as is; a pose target ``lm``
-misses is tried again by ``lm`` from :data:`RETRY_RESTARTS` further starts of another
-seed (UR5's straight-elbow targets, which 21 starts may miss), and the better of the
-two answers is returned.
+A position target ``lm`` misses goes to ``closed_form``'s second opinion where it
+applies; its answer to a target beyond reach is the arm stretched towards it, with the
+status ``unreachable``; the closer of the two answers is returned. The exact solvers'
+own misses are returned as they are (they are complete: a target they call
+unreachable is unreachable within the ranges); a pose target ``lm`` misses is tried
+again by ``lm`` from :data:`RETRY_RESTARTS` further starts of another seed (UR5's
+straight-elbow targets, which 21 starts may miss), and the better answer is returned.
 
 The answer records the choice: :attr:`IKResult.solver` names the solver that produced
-it, and ``details["auto"]`` lists the solvers tried, in order.
+it, and ``details["auto"]`` lists the solvers tried, in order; :meth:`Auto.reason` says
+why (``inspect`` prints it per limb).
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from numpy.typing import NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+from humanoid_ik.solvers.analytic.closed_form.geometry import arm_cache
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.analytic.two_link.geometry import limb_cache
 from humanoid_ik.solvers.base import Solver
@@ -47,8 +55,8 @@ RETRY_RESTARTS = 100
 
 
 class Auto(Solver):
-    """``closed_form`` for pose targets where it applies, else ``lm``; for position
-    targets ``lm``, then a closed form's second opinion after a miss (see the module
+    """``closed_form`` for pose targets and ``two_link`` for position targets where they
+    are exact, else ``lm``, then a second opinion after ``lm``'s miss (see the module
     docstring).
 
     Options: ``tol`` and ``rot_tol``, handed to each solver it runs (each keeps its
@@ -60,7 +68,7 @@ class Auto(Solver):
     """
 
     name: ClassVar[str] = "auto"
-    summary: ClassVar[str] = "closed_form for pose targets where it applies, else lm (recorded)"
+    summary: ClassVar[str] = "an exact solver where one applies (closed_form, two_link), else lm"
     supports_orientation: ClassVar[bool] = True
 
     def __init__(self, **options: Any):
@@ -77,26 +85,21 @@ class Auto(Solver):
     def choice(self, chain: Chain, pose: bool = False) -> Solver:
         """The solver ``auto`` runs first on ``chain`` for a pose (or position) target
         (kept with the chain, :meth:`Chain.derived`)."""
-        key = ("auto", pose)
-        return self._by_name[chain.derived(key, lambda c: self._choose(c, pose))]
+        return self._by_name[self._choose(chain, pose)[0]]
+
+    def reason(self, chain: Chain, pose: bool = False) -> str:
+        """Why :meth:`choice` is that solver, in a few words."""
+        return self._choose(chain, pose)[1]
 
     def second_opinion(self, chain: Chain) -> Solver | None:
-        """The solver that tries a position target ``lm`` missed on ``chain``, ``None``
-        where no closed form applies (kept with the chain)."""
-        name = chain.derived(("auto", "second_opinion"), self._second)
-        return None if name is None else self._by_name[name]
-
-    def _choose(self, chain: Chain, pose: bool) -> str:
-        if pose and self._closed_form.applicable(chain, pose) is None:
-            return self._closed_form.name
-        return self._lm.name
-
-    def _second(self, chain: Chain) -> str | None:
-        if self._closed_form.applicable(chain, False) is None:
-            return self._closed_form.name
-        if self._two_link.applicable(chain, False) is None and limb_cache(chain).k + 1 == chain.n:
-            return self._two_link.name
+        """The solver that tries a position target ``lm`` missed on ``chain``:
+        ``closed_form`` where it applies, else ``None``."""
+        if self.choice(chain, False) is self._lm and self._closed_form.applicable(chain) is None:
+            return self._closed_form
         return None
+
+    def _choose(self, chain: Chain, pose: bool) -> tuple[str, str]:
+        return chain.derived(("auto", pose), lambda c: _choose(c, pose))
 
     def prepare(self, chain: Chain) -> None:
         """Prepare the solvers that may run on ``chain`` (both tasks and the second
@@ -111,14 +114,16 @@ class Auto(Solver):
         first = self.choice(chain, target.is_pose)
         result = first._solve(chain, target, q0)
         tried: tuple[str, ...] = (first.name,)
-        if not result.converged and target.is_pose and first is self._lm:
+        if result.converged or first is not self._lm:
+            pass  # an exact solver's miss is a target out of reach: returned as is
+        elif target.is_pose:
             retry = self._lm_retry._solve(chain, target, q0)
             tried += ("lm",)
             if retry.converged or _cost(retry) < _cost(result):
                 result = retry
             else:
                 chain.set_q(result.q)
-        elif not result.converged and not target.is_pose:
+        else:
             # lm's miss to the closed form, whose answer to a target out of reach is the
             # arm stretched towards it
             second = self.second_opinion(chain)
@@ -130,6 +135,27 @@ class Auto(Solver):
                 else:
                     chain.set_q(result.q)  # the scratch data at the returned pose
         return result.with_details(auto=tried)  # the choice added to its details
+
+
+def _choose(chain: Chain, pose: bool) -> tuple[str, str]:
+    """The first solver for ``chain`` and the task, and why (see the module docstring)."""
+    shape = arm_cache(chain).reason
+    limb = limb_cache(chain)
+    if pose:
+        if shape is None:
+            return "closed_form", "shoulder and wrist axes meet: exact"
+        return "lm", "no exact solver applies to pose targets"
+    if limb.reason is None and limb.held is None:
+        if limb.k + 1 == chain.n:
+            kind = ("planar", "two-hinge", "three-hinge")[limb.k - 1]
+            return "two_link", f"a {kind} shoulder whose axes meet and an elbow: exact"
+        return "two_link", "the end frame is on the wrist's axes: exact"
+    held = [
+        name for name, why in (("closed_form", shape), ("two_link", limb.reason)) if why is None
+    ]
+    if held:
+        return "lm", f"{' and '.join(held)} would hold the wrist and miss reachable targets"
+    return "lm", "no exact solver applies to position targets"
 
 
 def _cost(result: IKResult) -> float:

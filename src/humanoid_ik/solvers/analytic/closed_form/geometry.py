@@ -42,12 +42,47 @@ __all__ = [
     "ArmContext",
     "StartMemo",
     "ArmCache",
+    "MEET_TOL",
+    "meeting",
+    "missed_by",
     "structure_problem",
     "forearm",
     "arm_cache",
     "arm_context",
     "arm_geometry",
 ]
+
+
+MEET_TOL = 1e-7
+"""How close [m] hinge axes must pass to one point to *meet* there: the one tolerance of
+``closed_form``'s and ``two_link``'s structure checks (a spherical shoulder or wrist), so
+of ``auto``'s choice of an exact solver. An exact solver's answer on axes that miss by
+``d`` is off by up to about ``2 d``: ``1e-7`` m is a thousandth of the default position
+tolerance (``1e-4`` m), and model files whose axes are meant to meet (Romeo, iCub, the
+bundled humanoid) meet within ``1e-16`` m. Axes that miss by more get ``lm``: G1's
+shoulder axes pass up to 7.5 mm from one point, Unitree H1's up to 9.1 mm (its pitch
+and roll axes are 16.5 mm apart; ``docs/limbs.md``)."""
+
+
+def meeting(anchors: NDArray, axes: NDArray) -> tuple[NDArray[np.float64] | None, float]:
+    """The point where the hinge axes ``anchor_i + s axis_i`` meet (``None`` where they
+    miss it by more than :data:`MEET_TOL`), and the miss [m]: how far the farthest axis
+    passes from the point nearest to all (least squares; ``inf`` for parallel axes,
+    which pin no point)."""
+    S = axes_meeting_point(anchors, axes, tol=math.inf)
+    if S is None:
+        return None, math.inf
+    off = np.cross(S - np.asarray(anchors), axes)  # each line's offset from S, normal to it
+    miss = float(np.linalg.norm(off, axis=1).max())
+    return (S if miss <= MEET_TOL else None), miss
+
+
+def missed_by(miss: float, axes: str = "they") -> str:
+    """``"they pass up to 9.06 mm from one point (more than 1e-07 m)"``: why ``axes``
+    do not meet, for a refusal."""
+    if not math.isfinite(miss):
+        return f"{axes} are parallel"
+    return f"{axes} pass up to {miss * 1e3:.3g} mm from one point (more than {MEET_TOL:g} m)"
 
 
 class ArmGeometry(NamedTuple):
@@ -89,12 +124,18 @@ def structure_problem(chain: Chain) -> str | None:
             f"{chain.n} joint(s)"
         )
     anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
-    S = axes_meeting_point(anchors[:3], axes[:3])
+    S, miss = meeting(anchors[:3], axes[:3])
     if S is None:
-        return "closed_form needs the first three hinge axes to meet at one point (a shoulder)"
-    W = axes_meeting_point(anchors[4:], axes[4:])
+        return (
+            "closed_form needs the first three hinge axes to meet at one point (a shoulder): "
+            + missed_by(miss)
+        )
+    W, miss = meeting(anchors[4:], axes[4:])
     if W is None:
-        return "closed_form needs the last three hinge axes to meet at one point (a wrist)"
+        return (
+            "closed_form needs the last three hinge axes to meet at one point (a wrist): "
+            + missed_by(miss)
+        )
     E, u = anchors[3], axes[3]
     for name, point in (("shoulder", S), ("wrist", W)):
         if float(np.linalg.norm(np.cross(point - E, u))) < 1e-9:
@@ -113,8 +154,7 @@ def read_geometry(chain: Chain) -> ArmGeometry:
     chain.set_q(np.zeros(chain.n))
     p0, R0 = chain.position.copy(), chain.rotation.copy()
     chain.set_q(q_keep)
-    S = axes_meeting_point(anchors[:3], axes[:3])
-    W = axes_meeting_point(anchors[4:], axes[4:])
+    S, W = meeting(anchors[:3], axes[:3])[0], meeting(anchors[4:], axes[4:])[0]
     assert S is not None and W is not None
     g = np.asarray(chain.model.opt.gravity, dtype=np.float64)
     gn = float(np.linalg.norm(g))

@@ -17,9 +17,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.rotations import axes_meeting_point
 from humanoid_ik.errors import SolverError
-from humanoid_ik.solvers.analytic.closed_form.geometry import Forearm, Triple, forearm
+from humanoid_ik.solvers.analytic.closed_form.geometry import (
+    MEET_TOL,
+    Forearm,
+    Triple,
+    forearm,
+    meeting,
+    missed_by,
+)
 from humanoid_ik.solvers.analytic.closed_form.numeric import (
     FLOATS,
     RANGE_TOL,
@@ -45,6 +51,7 @@ __all__ = [
     "place",
     "inside",
     "read_structure",
+    "held_wrist",
     "wrist_problem",
 ]
 
@@ -106,11 +113,14 @@ def read_structure(chain: Chain) -> tuple[int, str | None]:
             f"{n} joint(s)"
         )
     anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
+    missed = ""
     for k in (3, 2):
         if n < k + 1:
             continue
-        S = axes_meeting_point(anchors[:k], axes[:k])
+        S, miss = meeting(anchors[:k], axes[:k])
         if S is None:
+            if k == 3:
+                missed = "; " + missed_by(miss, "the first three")
             continue
         if any(abs(float(axes[i] @ axes[i + 1])) > 1.0 - _PARALLEL for i in range(k - 1)):
             return 0, "two_link needs shoulder axes whose neighbours are not parallel"
@@ -126,7 +136,7 @@ def read_structure(chain: Chain) -> tuple[int, str | None]:
         return _with_wrist(chain, anchors, axes, 1)
     return 0, (
         "two_link needs shoulder hinge axes that meet at one point (2 or 3 hinges) or a "
-        "shoulder hinge parallel to the elbow's (a planar arm)"
+        "shoulder hinge parallel to the elbow's (a planar arm)" + missed
     )
 
 
@@ -169,13 +179,40 @@ def wrist_problem(chain: Chain, anchors: NDArray, axes: NDArray, k: int) -> str 
     )
     if len(rest) > MAX_WRIST:
         return f"two_link needs a wrist of at most {MAX_WRIST} hinges after the elbow; {after}{fix}"
-    if len(rest) > 1 and axes_meeting_point(anchors[rest], axes[rest]) is None:
+    if len(rest) > 1 and meeting(anchors[rest], axes[rest])[0] is None:
         listed = ", ".join(f"'{names[i]}'" for i in rest)
         return (
             f"two_link needs the joints after the elbow to be a wrist, their axes meeting at "
             f"one point; those of {listed} (after the elbow '{names[k]}') do not{fix}"
         )
     return None
+
+
+def held_wrist(chain: Chain, k: int) -> str | None:
+    """Why ``two_link`` misses targets the chain reaches (its wrist, joints ``k + 1 ..``,
+    held at the start moves the end frame), or ``None`` where it reaches them all: no
+    joint after the elbow ``k``, or an end frame on the wrist's axes (within
+    :data:`~humanoid_ik.solvers.analytic.closed_form.geometry.MEET_TOL`; iCub's hand).
+    """
+    rest = list(range(k + 1, chain.n))
+    if not rest:
+        return None
+    anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
+    keep = chain.q
+    hand = chain.fk(np.zeros(chain.n))[0]
+    chain.set_q(keep)
+    W = meeting(anchors[rest], axes[rest])[0] if len(rest) > 1 else None
+    off = (
+        float(np.linalg.norm(hand - W))
+        if W is not None
+        else max(_off_line(hand, anchors[i], axes[i]) for i in rest)
+    )
+    if off <= MEET_TOL:
+        return None
+    return (
+        f"two_link holds the {len(rest)} joint(s) after the elbow at their start and the "
+        f"end frame is {off * 1e3:.3g} mm off their axes: it misses targets they reach"
+    )
 
 
 # ------------------------------------------------------------------------------ the hand
@@ -240,7 +277,7 @@ class LimbContext:
         anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
         self.k = k
         self.kind = KINDS[k]
-        S = anchors[0] if k == 1 else axes_meeting_point(anchors[:k], axes[:k])
+        S = anchors[0] if k == 1 else meeting(anchors[:k], axes[:k])[0]
         assert S is not None
         self.S = vec(S)
         self.axes = tuple(vec(a) for a in axes[:k])
@@ -327,6 +364,9 @@ class LimbCache:
     def __init__(self, chain: Chain):
         self.k, self.reason = read_structure(chain)
         """Shoulder hinges, and why ``two_link`` does not apply (``None`` if it does)."""
+        self.held = None if self.reason is not None else held_wrist(chain, self.k)
+        """Why ``two_link`` misses targets the chain reaches (:func:`held_wrist`), ``None``
+        where it is exact: it then places the end frame wherever the chain can."""
         self.seen: list[float] | None = None
         self.context: LimbContext | None = None
 
