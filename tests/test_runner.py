@@ -15,7 +15,7 @@ import pytest
 
 from humanoid_ik.config.scene import SolverSpec, bundled_scenes, load_scene
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.measures import ON_TARGET_DISTANCE
+from humanoid_ik.core.measures import ON_TARGET_DISTANCE, gaze_error
 from humanoid_ik.core.types import EffectorGoal
 from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.outputs.atomic import atomic_path, write_json, write_text
@@ -348,7 +348,7 @@ def test_mink_moves_both_hands_and_gaze_together():
     1 mm."""
     sc = load_scene("showcase").with_overrides(solver="mink", frames=10)
     run = SceneRunner(sc)
-    assert [members for _, members in run._groups] == [[0, 1, 2]]
+    assert [members for _, members in run.solvers] == [(0, 1, 2)]
     m = run.run()
     for k in range(3):
         assert m.series(k, "position_error").max() < 1e-3
@@ -364,3 +364,57 @@ def test_solvers_are_prepared_before_the_first_frame():
 
     lib = run.chains[0].derived(("seed_library", 4000, 7), built_again)
     assert lib.q.shape == (4000, run.chains[0].n)
+
+
+def test_gaze_errors_are_the_gaze_measure_of_the_frame():
+    """A look_at effector's errors are its result's, and they are the gaze measure of the
+    frame the run shows: gaze_error of the gaze site on the frame's MjData, to the bit;
+    its gaze point lies on the site's x axis at the target's distance."""
+    sc = load_scene("showcase")
+    run = SceneRunner(sc)
+    sid = mujoco.mj_name2id(run.model, mujoco.mjtObj.mjOBJ_SITE, "gaze_site")
+    x = np.array([1.0, 0.0, 0.0])
+    for i in range(0, sc.n_frames, 11):
+        s = run.step(i).samples[2]
+        assert s.task == "look_at"
+        p, R = run.data.site_xpos[sid], run.data.site_xmat[sid]
+        miss, angle = gaze_error(p, R, x, s.target)
+        assert (s.position_error, s.orientation_error) == (miss, angle)
+        assert type(s.position_error) is float and type(s.orientation_error) is float
+        v = s.target - p
+        np.testing.assert_allclose(s.achieved, p + np.linalg.norm(v) * R.reshape(3, 3)[:, 0])
+
+
+def test_effectors_on_one_target_share_its_position():
+    """The showcase's right hand and gaze track one target: each frame it moves once, both
+    samples hold its position, which is the motion's at the frame's time, to the bit."""
+    sc = load_scene("showcase")
+    m = SceneRunner(sc).run(frames=40)
+    motion = sc.target("circle").motion
+    for f in m.frames:
+        hand, _, gaze = f.samples
+        assert hand.target_name == gaze.target_name == "circle"
+        assert hand.target is gaze.target and not hand.target.flags.writeable
+        np.testing.assert_array_equal(hand.target, motion.position(f.time))
+
+
+def test_limit_margin_is_the_nearest_range_end():
+    """Each sample's limit margin is the smallest distance of the chain's joints (as the
+    frame applied them) to a range end, to the bit: min(q - lower, upper - q)."""
+    run = SceneRunner(load_scene("both_hands"))
+    for i in range(0, 180, 13):
+        rec = run.step(i)
+        for k, s in enumerate(rec.samples):
+            chain = run.chains[k]
+            q = run.data.qpos[chain.qpos_adr]
+            want = float(np.min(np.minimum(q - chain.lower, chain.upper - q)))
+            assert s.limit_margin == want and 0.0 < want < math.pi
+
+
+def test_solvers_lists_each_solver_with_its_effectors():
+    """One solver object per distinct spec: the showcase's hands share one dls (each
+    solved alone), the gaze has look_at."""
+    run = SceneRunner(load_scene("showcase"))
+    (a, ia), (b, ib), (c, ic) = run.solvers
+    assert (ia, ib, ic) == ((0,), (1,), (2,))
+    assert a is b and a.name == "dls" and c.name == "look_at"

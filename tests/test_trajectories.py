@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 
 from humanoid_ik.core.checks import MAX_POINTS, check_int, check_vector
 from humanoid_ik.core.rotations import quat_to_mat, rotation_log
-from humanoid_ik.errors import MotionError
+from humanoid_ik.core.types import Target
+from humanoid_ik.errors import MotionError, TargetError
 from humanoid_ik.motion import (
     MAX_KNOTS,
     MOTIONS,
@@ -240,6 +242,67 @@ def test_target_track_builds_targets():
     p = TargetTrack("ball", m, Orientation([1, 0, 0, 0]))
     assert p.is_pose
     np.testing.assert_allclose(p.at(0.0).quat, [1, 0, 0, 0])
+
+
+def test_curves_in_floats_equal_their_array_formulas_to_the_bit():
+    """Circle, FigureEight and OutAndBack compute their positions in floats: the same
+    values, to the bit, as their formulas on numpy arrays, each call a new float64 (3,)
+    array of its own."""
+    n = np.array([1.0, 2.0, -0.5])
+    c = Circle(C, 0.13, normal=n, period=2.7, phase=0.4, reverse=True)
+    f = FigureEight(C, 0.26, 0.14, normal=n, period=6.0, phase=-1.1)
+    s, far = np.array([0.35, -0.30, 1.15]), np.array([1.05, -0.40, 1.45])
+    o = OutAndBack(s, far, rest=0.3, out=1.1, hold=0.2, back=0.9)
+    u, v = plane_basis(n)
+    for t in np.linspace(-0.5, 13.0, 301).tolist():
+        th = c.angle(t)
+        formulas = [
+            (c, C + 0.13 * (math.cos(th) * u + math.sin(th) * v)),
+            (
+                f,
+                C
+                + 0.5 * 0.26 * math.sin(2 * math.pi * max(t, 0.0) / 6.0 - 1.1) * u
+                + 0.5 * 0.14 * math.sin(2.0 * (2 * math.pi * max(t, 0.0) / 6.0 - 1.1)) * v,
+            ),
+            (o, s + o.fraction(t) * (far - s)),
+        ]
+        for motion, want in formulas:
+            got = motion.position(t)
+            assert got.dtype == np.float64 and got.shape == (3,) and got.flags.owndata
+            np.testing.assert_array_equal(got, want)
+            assert got is not motion.position(t)
+
+
+def test_target_from_motion_takes_the_array_and_keeps_the_bound():
+    """Target.from_motion keeps a motion's array (made read-only) and checks only its
+    bound, with the constructor's errors; anything else gets the constructor's checks."""
+    p = np.array([0.4, -0.3, 1.2])
+    t = Target.from_motion(p)
+    assert t.position is p and not p.flags.writeable and t.quat is None and t.rotation is None
+    assert repr(t) == repr(Target([0.4, -0.3, 1.2])) and not t.is_pose
+    for bad, message in (
+        ([0.4, 2e6, 1.2], "target position [0.4, 2000000.0, 1.2] lies beyond 1e+06 m"),
+        ([0.4, math.nan, 1.2], "target position [0.4, nan, 1.2] is not finite"),
+        ([0.4, -0.3, 1.2, 0.0], "target position must have 3 values (x, y, z), got shape (4,)"),
+    ):
+        with pytest.raises(TargetError, match=re.escape(message)):
+            Target.from_motion(np.array(bad))
+    with pytest.raises(TargetError, match="target position must be numbers"):
+        Target.from_motion(["a", 0, 0])  # type: ignore[arg-type]
+    listed = Target.from_motion([1, 2, 3])  # type: ignore[arg-type]
+    assert listed.position.dtype == np.float64 and listed.position.tolist() == [1.0, 2.0, 3.0]
+    q = np.array([1.0 + 1e-7, 0.0, 0.0, 0.0])  # a pose goes through the constructor
+    posed = Target.from_motion(np.array([0.1, 0.2, 0.3]), q)
+    assert posed.quat is not None and posed.quat.tolist() == [1.0, 0.0, 0.0, 0.0]
+    np.testing.assert_array_equal(posed.rotation, np.eye(3))
+
+
+def test_a_track_past_the_coordinate_bound_is_a_target_error():
+    """A motion that runs past 1e6 m gives the target error of user input, not a target."""
+    far = TargetTrack("far", OutAndBack([0.0, 0.0, 1.0], [3e6, 0.0, 1.0], rest=0.0))
+    assert far.at(0.0).position.tolist() == [0.0, 0.0, 1.0]
+    with pytest.raises(TargetError, match="lies beyond 1e"):
+        far.at(1.5)
 
 
 def test_motion_registry_and_parameters():

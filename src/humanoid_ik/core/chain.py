@@ -540,10 +540,12 @@ class Chain:
     def limit_margin(self, q: ArrayLike) -> float:
         """Smallest distance [rad] of any joint to its nearest range end (negative outside)."""
         qs = np.asarray(q, dtype=np.float64).tolist()  # a few joints: plain floats are quicker
-        return min(
-            min(x - a, b - x)
-            for x, a, b in zip(qs, self.lower.tolist(), self.upper.tolist(), strict=True)
-        )
+        m = math.inf  # the first smallest, as min(min(x - a, b - x) for ...) takes it
+        for x, a, b in zip(qs, self.lower.tolist(), self.upper.tolist(), strict=True):
+            below, above = x - a, b - x
+            m = below if below < m else m
+            m = above if above < m else m
+        return m
 
     def random_q(self, rng: np.random.Generator) -> NDArray[np.float64]:
         """A uniform joint vector inside the ranges (unlimited joints in [-pi, pi])."""

@@ -36,6 +36,7 @@ STATUSES = tuple(s.value for s in Status)
 TARGET_KINDS = ("position", "pose")
 """What a target fixes: a position, or a pose (position and orientation)."""
 MAX_COORDINATE = 1e6  # [m]: farther targets are input mistakes (and overflow squares)
+_FLOAT64 = np.dtype(np.float64)
 
 
 @dataclass(frozen=True)
@@ -82,6 +83,32 @@ class Target:
         if isinstance(target, Target):
             return target if q is None else cls(target.position, q)
         return cls(float_array("target position", target), q)
+
+    @classmethod
+    def from_motion(
+        cls, position: NDArray[np.float64], quat: NDArray[np.float64] | None = None
+    ) -> Target:
+        """The target a motion gives at one instant, without the checks of user input.
+
+        ``position`` is what :meth:`Motion.position <humanoid_ik.motion.base.Motion.position>`
+        returns, a new float64 ``(3,)`` array from checked parameters: it is taken as is
+        (not copied; made read-only) and only its coordinates are bounded, with the
+        constructor's error. Anything else, and a pose target's quaternion (which the
+        constructor normalises), goes through the constructor. The frame loop builds
+        every frame's targets this way.
+        """
+        p = position
+        if quat is not None or type(p) is not np.ndarray or p.dtype is not _FLOAT64:
+            return cls(p, quat)
+        if p.shape != (3,):
+            return cls(p)
+        x, y, z = p.tolist()
+        if not (abs(x) <= MAX_COORDINATE and abs(y) <= MAX_COORDINATE and abs(z) <= MAX_COORDINATE):
+            return cls(p)  # raises the constructor's error
+        p.setflags(write=False)
+        new = object.__new__(cls)
+        new.__dict__.update(position=p, quat=None, rotation=None)
+        return new
 
     @property
     def is_pose(self) -> bool:

@@ -90,7 +90,9 @@ class Motion(ABC):
 
     @abstractmethod
     def position(self, t: float) -> NDArray[np.float64]:
-        """Target position ``(3,)`` [m] at time ``t`` [s] (``t < 0`` is read as 0)."""
+        """Target position ``(3,)`` [m] at time ``t`` [s] (``t < 0`` is read as 0): a new
+        float64 array on each call, which the caller keeps (:meth:`TargetTrack.at
+        <humanoid_ik.motion.track.TargetTrack.at>` makes it the target's, read-only)."""
 
     @property
     def horizon(self) -> float:

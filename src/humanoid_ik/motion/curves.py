@@ -16,6 +16,11 @@ from humanoid_ik.motion.base import Motion, plane_basis, set_frozen
 __all__ = ["Circle", "FigureEight", "Lissajous"]
 
 
+def _floats(*vectors: NDArray[np.float64]) -> tuple[float, ...]:
+    """The coordinates of ``vectors`` as one tuple of floats, for a curve's position."""
+    return tuple(x for vec in vectors for x in vec.tolist())
+
+
 @dataclass(frozen=True)
 class Circle(Motion):
     """A circle in the plane through ``center`` with ``normal``.
@@ -43,6 +48,7 @@ class Circle(Motion):
     reverse: bool = False
     u: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     v: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _floats: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         set_frozen(self, "center", check_vector("center", self.center))
@@ -54,6 +60,7 @@ class Circle(Motion):
         u, v = plane_basis(self.normal)
         set_frozen(self, "u", u)
         set_frozen(self, "v", v)
+        set_frozen(self, "_floats", _floats(self.center, u, v))
 
     def angle(self, t: float) -> float:
         """``th(t)`` [rad]."""
@@ -61,8 +68,18 @@ class Circle(Motion):
         return (-th if self.reverse else th) + self.phase
 
     def position(self, t: float) -> NDArray[np.float64]:
+        # c + r (cos th u + sin th v), per coordinate in floats: the same operations in
+        # the same order as on the arrays, without numpy's cost on three values
         th = self.angle(t)
-        return self.center + self.radius * (math.cos(th) * self.u + math.sin(th) * self.v)
+        r, ct, st = self.radius, math.cos(th), math.sin(th)
+        c0, c1, c2, u0, u1, u2, v0, v1, v2 = self._floats
+        return np.array(
+            (
+                c0 + r * (ct * u0 + st * v0),
+                c1 + r * (ct * u1 + st * v1),
+                c2 + r * (ct * u2 + st * v2),
+            )
+        )
 
 
 @dataclass(frozen=True)
@@ -92,6 +109,7 @@ class FigureEight(Motion):
     phase: float = 0.0
     u: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     v: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _floats: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         set_frozen(self, "center", check_vector("center", self.center))
@@ -103,14 +121,15 @@ class FigureEight(Motion):
         u, v = plane_basis(self.normal)
         set_frozen(self, "u", u)
         set_frozen(self, "v", v)
+        set_frozen(self, "_floats", _floats(self.center, u, v))
 
     def position(self, t: float) -> NDArray[np.float64]:
+        # c + a u + b v per coordinate in floats (the order of the array expression)
         th = 2.0 * math.pi * max(t, 0.0) / self.period + self.phase
-        return (
-            self.center
-            + 0.5 * self.width * math.sin(th) * self.u
-            + 0.5 * self.height * math.sin(2.0 * th) * self.v
-        )
+        a = 0.5 * self.width * math.sin(th)
+        b = 0.5 * self.height * math.sin(2.0 * th)
+        c0, c1, c2, u0, u1, u2, v0, v1, v2 = self._floats
+        return np.array((c0 + a * u0 + b * v0, c1 + a * u1 + b * v1, c2 + a * u2 + b * v2))
 
 
 @dataclass(frozen=True)

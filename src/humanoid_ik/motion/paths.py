@@ -285,10 +285,12 @@ class OutAndBack(Motion):
     out: float = 1.5
     hold: float = 1.0
     back: float = 1.5
+    _floats: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         set_frozen(self, "start", check_vector("start", self.start))
         set_frozen(self, "far", check_vector("far", self.far))
+        set_frozen(self, "_floats", (*self.start.tolist(), *(self.far - self.start).tolist()))
         set_frozen(self, "rest", check_number("rest", self.rest, low=0.0))
         set_frozen(self, "out", check_number("out", self.out, low=0.0, strict=True))
         set_frozen(self, "hold", check_number("hold", self.hold, low=0.0))
@@ -314,4 +316,7 @@ class OutAndBack(Motion):
         return 1.0 - smoothstep(t / self.back)
 
     def position(self, t: float) -> NDArray[np.float64]:
-        return self.start + self.fraction(t) * (self.far - self.start)
+        # start + f (far - start) per coordinate in floats (the array expression's order)
+        f = self.fraction(t)
+        s0, s1, s2, d0, d1, d2 = self._floats
+        return np.array((s0 + f * d0, s1 + f * d1, s2 + f * d2))

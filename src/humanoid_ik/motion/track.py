@@ -31,6 +31,8 @@ class TargetTrack:
         return self.orientation is not None
 
     def at(self, t: float) -> Target:
-        """The :class:`~humanoid_ik.core.types.Target` at time ``t`` [s]."""
+        """The :class:`~humanoid_ik.core.types.Target` at time ``t`` [s] (built from the
+        motion's checked output: :meth:`Target.from_motion
+        <humanoid_ik.core.types.Target.from_motion>`)."""
         quat = None if self.orientation is None else self.orientation.quat_at(t)
-        return Target(self.motion.position(t), quat)
+        return Target.from_motion(self.motion.position(t), quat)

@@ -65,7 +65,11 @@ class Recording:
         self.targets = list(targets)
         self.frames: list[FrameRecord] = []
         self.qpos: list[NDArray[np.float64]] = []
-        self._quats: list[list[NDArray[np.float64] | None]] = []
+        self._quats: list[Sequence[NDArray[np.float64] | None]] = []
+        self._orientations = [t.orientation for t in self.targets]
+        # a frame without pose targets keeps this one row of Nones
+        self._no_quats = (None,) * len(self.targets)
+        self._posed = any(o is not None for o in self._orientations)
         self.frame_times: list[float] = []
         self.interrupted = False
 
@@ -80,11 +84,12 @@ class Recording:
         (as a sink of the runner's loop)."""
         self.frames.append(record)
         self.qpos.append(data.qpos.copy())
+        if not self._posed:
+            self._quats.append(self._no_quats)
+            return
+        t = record.time
         self._quats.append(
-            [
-                None if t.orientation is None else np.asarray(t.orientation.quat_at(record.time))
-                for t in self.targets
-            ]
+            [None if o is None else np.asarray(o.quat_at(t)) for o in self._orientations]
         )
 
     def series(self, effector: int, attribute: str) -> NDArray[np.float64]:

@@ -2,7 +2,9 @@
 
 Per frame ``i`` at ``t = i / fps``:
 
-1. every target moves to ``motion.position(t)`` (and ``orientation.quat_at(t)``);
+1. every target moves to ``motion.position(t)`` (and ``orientation.quat_at(t)``), once
+   however many effectors track it (:meth:`Target.from_motion
+   <humanoid_ik.core.types.Target.from_motion>`: the motion's output is not checked again);
 2. every effector's solver solves from the joint values of the previous frame (warm
    start; the first frame starts at the ``home`` keyframe), in the one robot state all
    the scene's chains share (:class:`~humanoid_ik.core.robot.Robot`): nothing is
@@ -12,8 +14,9 @@ Per frame ``i`` at ``t = i / fps``:
    ``needs_forward``, true unless it sets it false), else ``mj_kinematics``, all the
    recording and the measures read;
 4. metrics are read from that ``MjData`` and the results: target and achieved
-   position, position and orientation error (a result's errors are measured once, by
-   MuJoCo FK at the pose it returns, which is the pose the frame shows), iterations,
+   position, position and orientation error (a result's errors, a gaze's too, are
+   measured once, by MuJoCo FK at the pose it returns, which is the pose the frame
+   shows), iterations,
    solve time, the nearest joint-limit margin, and whether the target is within reach
    (no farther from the chain's base, its first joint's anchor at this frame, than the
    chain's sampled reach, :meth:`Chain.reach <humanoid_ik.core.chain.Chain.reach>`).
@@ -42,9 +45,9 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.config.scene import EffectorSpec, Scene, SolverSpec, check_scene, scene_model
+from humanoid_ik.config.scene import Scene, SolverSpec, check_scene, scene_model
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.measures import gaze_error, on_target
+from humanoid_ik.core.measures import on_target
 from humanoid_ik.core.types import EffectorGoal, IKResult, Target
 from humanoid_ik.errors import HumanoidIKError, SceneError
 from humanoid_ik.run.metrics import EffectorSample, FrameRecord
@@ -150,6 +153,15 @@ class SceneRunner:
         sets it for its sinks (:func:`needs_forward`)."""
         self.specs: list[SolverSpec] = [scene.solver_for(e) for e in scene.effectors]
         self.targets = [scene.target(e.target) for e in scene.effectors]
+        # each target moves once per frame, however many effectors track it
+        names = list(dict.fromkeys(e.target for e in scene.effectors))
+        self._tracks = [scene.target(n) for n in names]
+        self._track_of = [names.index(e.target) for e in scene.effectors]
+        # what every sample of an effector repeats: its name, its target's, its task
+        self._labels = [(e.name, e.target, e.task) for e in scene.effectors]
+        # each end effector's position and rotation and its chain's base: views of the
+        # robot's one MjData, read after each frame's kinematics pass
+        self._views = [(c.position, c.rotation, c.base) for c in self.chains]
         # each reaching chain's sampled reach [m], computed once (the robot keeps it)
         self._reach = [
             c.reach()[1] if e.task == "reach" else math.inf
@@ -176,6 +188,12 @@ class SceneRunner:
         for solver, members in self._groups:
             for i in members:
                 self._gaze_axes[i] = solver.gaze_axis()
+        # where each gaze looks: a view of the column of the site's rotation when the axis
+        # is one of the frame's (R @ axis without the product; else None: the product)
+        self._looks = [
+            R[:, a.tolist().index(1.0)] if sorted(a.tolist()) == [0.0, 0.0, 1.0] else None
+            for (_p, R, _base), a in zip(self._views, self._gaze_axes, strict=True)
+        ]
         self.reset()
         self._prepare_solvers()
 
@@ -200,6 +218,13 @@ class SceneRunner:
     def n_frames(self) -> int:
         """Frames of a full run."""
         return self.scene.n_frames
+
+    @property
+    def solvers(self) -> list[tuple[Any, tuple[int, ...]]]:
+        """Each solver object of the run and the effectors it moves (scene order).
+        Effectors of one solver spec share its object; a solver that moves several
+        effectors at once gets them in one entry, any other one entry per effector."""
+        return [(solver, tuple(members)) for solver, members in self._groups]
 
     def solver_labels(self) -> list[str]:
         """Each effector's solver, as ``name`` or ``name(options)``."""
@@ -235,7 +260,11 @@ class SceneRunner:
         """
         t = self.time_of(index) if t is None else float(t)
         m, d = self.model, self.data
-        targets = [trk.at(t) for trk in self.targets] if targets is None else list(targets)
+        if targets is None:
+            moved = [trk.at(t) for trk in self._tracks]
+            targets = [moved[k] for k in self._track_of]
+        else:
+            targets = list(targets)
         results: list[IKResult | None] = [None] * len(self.chains)
         times = [0.0] * len(self.chains)
         for solver, members in self._groups:
@@ -257,54 +286,52 @@ class SceneRunner:
                 res = solver.solve(self.chains[i], targets[i], self.q[i])
                 times[i] = time.perf_counter() - t0
                 results[i] = res
+        qpos, chains = d.qpos, self.chains
         for i, res in enumerate(results):
             assert res is not None
             self.q[i] = res.q
-            d.qpos[self.chains[i].qpos_adr] = res.q
+            qpos[chains[i].qpos_adr] = res.q
         (mujoco.mj_forward if self.forward else mujoco.mj_kinematics)(m, d)
-        samples = tuple(
-            self._measure(i, targets[i], results[i], times[i])  # type: ignore[arg-type]
-            for i in range(len(self.chains))
-        )
-        return FrameRecord(index, t, samples)
+        samples = map(self._measure, range(len(results)), targets, results, times)  # type: ignore[arg-type]
+        return FrameRecord(index, t, tuple(samples))
 
     def _measure(self, i: int, target: Target, res: IKResult, dt: float) -> EffectorSample:
-        """Effector ``i``'s sample of this frame. A reaching effector's errors are its
-        result's, measured once by MuJoCo FK at the pose the frame shows; a gaze's are
-        the gaze measure's (:func:`~humanoid_ik.core.measures.gaze_error`)."""
-        eff: EffectorSpec = self.scene.effectors[i]
-        chain = self.chains[i]
-        p = chain.position.copy()
+        """Effector ``i``'s sample of this frame. Its errors are its result's, measured once
+        by MuJoCo FK at the pose it returns, which is the pose the frame shows (a gaze's
+        by the gaze measure, :func:`~humanoid_ik.core.measures.gaze_error`)."""
+        name, target_name, task = self._labels[i]
+        p, R, base = self._views[i]
         pd = target.position
-        orient: float | None = None
-        if eff.task == "look_at":
-            axis = self._gaze_axes[i]
-            R = chain.rotation
-            err, orient = gaze_error(p, R, axis, pd)
-            achieved = p + float(np.linalg.norm(pd - p)) * (R @ axis)
+        orient: float | None
+        if task == "look_at":
+            err, orient = float(res.position_error), float(res.orientation_error)  # type: ignore[arg-type]
+            v = pd - p
+            # the gaze point: on the gaze axis, as far from the site as the target
+            # (sqrt(v . v) is np.linalg.norm(v) without its checks and its numpy scalar)
+            look = self._looks[i]
+            achieved = p + math.sqrt(v.dot(v)) * (R @ self._gaze_axes[i] if look is None else look)
             on = on_target(err)
             reachable = bool(res.converged)
         else:
-            achieved = p
+            achieved = p.copy()
             err = res.position_error
-            if target.quat is not None:
-                orient = res.orientation_error
+            orient = None if target.quat is None else res.orientation_error
             on = on_target(err, orient)
-            reachable = math.dist(pd.tolist(), chain.base.tolist()) <= self._reach[i]
+            reachable = math.dist(pd.tolist(), base.tolist()) <= self._reach[i]
         return EffectorSample(
-            effector=eff.name,
-            target_name=eff.target,
-            task=eff.task,
-            target=pd,  # read-only: a Target's position
-            achieved=achieved,
-            position_error=err,
-            orientation_error=orient,
-            iterations=int(res.iterations),
-            solve_time=dt,
-            limit_margin=chain.limit_margin(self.q[i]),
-            reachable=reachable,
-            on_target=bool(on),
-            status=res.status,
+            name,
+            target_name,
+            task,
+            pd,  # read-only: a Target's position
+            achieved,
+            err,
+            orient,
+            int(res.iterations),
+            dt,
+            self.chains[i].limit_margin(res.q),
+            reachable,
+            bool(on),
+            res.status,
         )
 
     def run(
