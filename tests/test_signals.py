@@ -12,6 +12,7 @@ import sys
 import time
 import uuid
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -172,6 +173,11 @@ DATASET_PAIRS = 100_000
 looking every half millisecond."""
 
 
+MOMENT_ATTEMPTS = 3
+"""Runs started before a moment is given up: the packing phase lasts about 10 ms, which
+a loaded machine can spend elsewhere."""
+
+
 def _packing(out: Path) -> bool:
     return any(p.name.endswith(".tmp.npz") for p in out.iterdir())
 
@@ -229,10 +235,15 @@ def test_kill_in_each_phase_of_sweeps_and_datasets_leaves_complete_or_nothing(
     else:
         args = ["dataset", "--n", str(DATASET_PAIRS), "--out", str(out / "d.npz")]
     tag = uuid.uuid4().hex
-    proc = start(args, tag)
     moment = PHASES[phase]
-    ready = moment if isinstance(moment, float) else lambda: moment(proc, out)
-    assert signal_when(proc, sig, ready, poll=0.0005 if phase == "packing" else 0.002)
+    for _attempt in range(MOMENT_ATTEMPTS):  # a busy machine may miss a short moment
+        proc = start(args, tag)
+        ready = moment if isinstance(moment, float) else partial(moment, proc, out)
+        if signal_when(proc, sig, ready, poll=0.0005 if phase == "packing" else 0.002):
+            break
+        ended(proc, tag, 60)  # it finished first: run it again
+    else:
+        pytest.fail(f"the {phase} moment came and went unseen {MOMENT_ATTEMPTS} times")
     _o, err = ended(proc, tag, 60)
     # ended by the signal itself (before the handlers are installed, or SIGKILL), by its
     # handler (130, 143), or finished first (0)

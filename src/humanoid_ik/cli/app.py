@@ -15,6 +15,7 @@ import os
 import signal
 import sys
 import threading
+import time
 import traceback
 import warnings
 from collections.abc import Sequence
@@ -28,6 +29,7 @@ from humanoid_ik.cli import (
     inspect,
     render,
     replay,
+    retarget,
     run,
     scenes,
     solve,
@@ -41,7 +43,8 @@ from humanoid_ik.errors import HumanoidIKError
 
 __all__ = ["build_parser", "main"]
 
-_COMMANDS = (solve, bench, inspect, render, scenes, run, replay, export, view, sweep, dataset)
+_COMMANDS: tuple[Any, ...] = (solve, bench, inspect, render, scenes, run, replay, export, view)
+_COMMANDS += (sweep, dataset, retarget)
 _MODEL_COMMANDS = ("inspect", "view", "replay", "export-bvh", "export-keyframes")
 """The commands with a ``--model`` of their own (not ``add_chain_args``'), which get
 ``--package-path`` here: every command that takes ``--model`` takes it."""
@@ -129,17 +132,23 @@ def _show_notes() -> Any:
     return show
 
 
-REDELIVERY_DELAY = 0.01
+REDELIVERY_DELAY = 0.05
 """[s] after which an interrupt Python could not raise is delivered again: long enough
 for the unraisable hook to have returned, so it is raised in the program's own code."""
+
+
+def _deliver_later(signum: signal.Signals) -> None:
+    time.sleep(REDELIVERY_DELAY)
+    _thread.interrupt_main(signum)
 
 
 def _interrupts_delivered_again() -> Any:
     """A ``sys.unraisablehook`` for a Ctrl-C or SIGTERM that landed where Python cannot
     raise it (a finaliser, the import system's module-lock callback): Python would print
     ``Exception ignored in ...`` and go on as if no signal had come. This one prints
-    nothing and delivers the signal again a moment later, from a timer thread, so that it
-    is raised in the main thread's code and stops the command as a signal should."""
+    nothing and delivers the signal again a moment later from a bare thread (started
+    without ``threading``'s hand-shake, so the hook returns at once), so that it is
+    raised in the main thread's code and stops the command as a signal should."""
     shown = sys.unraisablehook
 
     def hook(unraisable: Any) -> None:
@@ -148,9 +157,7 @@ def _interrupts_delivered_again() -> Any:
             shown(unraisable)
             return
         signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
-        again = threading.Timer(REDELIVERY_DELAY, _thread.interrupt_main, (signum,))
-        again.daemon = True
-        again.start()
+        _thread.start_new_thread(_deliver_later, (signum,))
 
     return hook
 
