@@ -1,0 +1,32 @@
+"""Human motion capture (BVH) retargeted onto a humanoid's arms and head
+(``docs/retarget.md``).
+
+- :mod:`.human`: the human side found by joint names (CMU, Mixamo, LAFAN1, ...), a
+  mapping file to override;
+- :mod:`.robot`: the robot's arms, head, speed limits and self-collision pairs;
+- :mod:`.targets`: the human's motion scaled onto the robot, frame by frame;
+- :mod:`.elbow`: the elbow's direction, as a swivel, a branch or null-space steps;
+- :mod:`.solve`: every frame solved (exact solvers, ``lm``, the QP);
+- :mod:`.metrics`: the per-frame metrics, their summary and the plot;
+- :mod:`.pipeline`: :func:`retarget` (one clip, its files) and :func:`retarget_folder`.
+"""
+
+from humanoid_ik.experiments.retarget.human import Mapping, RetargetError, find_human
+from humanoid_ik.experiments.retarget.pipeline import (
+    CLIP_FILES,
+    RetargetResult,
+    retarget,
+    retarget_folder,
+)
+from humanoid_ik.experiments.retarget.solve import SOLVERS
+
+__all__ = [
+    "CLIP_FILES",
+    "SOLVERS",
+    "Mapping",
+    "RetargetError",
+    "RetargetResult",
+    "find_human",
+    "retarget",
+    "retarget_folder",
+]

@@ -1,0 +1,226 @@
+"""Retargeting human motion capture onto humanoids (``experiments/retarget``, the
+``retarget`` command): the human side found by name in CMU and Mixamo files of either
+convention, hands, elbows and gaze matched, no joint out of range or over its speed
+limit, no self-collision (measured here with MuJoCo on the derived pairs), the files
+and the one-line errors of the command."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from humanoid_ik.cli.app import main
+from humanoid_ik.core.limbs import find_limbs
+from humanoid_ik.core.models import load_model
+from humanoid_ik.errors import BVHError
+from humanoid_ik.experiments.retarget import CLIP_FILES, Mapping, find_human, retarget
+from humanoid_ik.experiments.retarget.robot import DEFAULT_SPEED, urdf_speeds
+from humanoid_ik.motion.bvh import parse_bvh
+from humanoid_ik.motion.human import human_bvh
+from humanoid_ik.outputs.trajectory import load_trajectory
+from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
+from tests.robots import robot_file
+
+
+def _clip(tmp_path: Path, motion: str = "wave", frames: int = 90, **kw) -> Path:
+    p = tmp_path / f"{motion}_{kw.get('style', 'cmu')}_{kw.get('up', 'y')}.bvh"
+    p.write_text(human_bvh(motion, seconds=frames / 120.0, **kw))
+    return p
+
+
+@pytest.mark.parametrize(
+    "style,up,units", [("cmu", "y", "cm"), ("mixamo", "y", "cm"), ("cmu", "z", "m")]
+)
+def test_human_side_found_in_every_convention(style, up, units):
+    clip = parse_bvh(human_bvh("reach", style=style, up=up, units=units, seconds=0.1))
+    h = find_human(clip)
+    prefix = "mixamorig:" if style == "mixamo" else ""
+    assert h.names["left_shoulder"] == f"{prefix}LeftArm"  # not the clavicle, LeftShoulder
+    assert h.names["right_elbow"] == f"{prefix}RightForeArm"
+    assert h.names["left_wrist"] == f"{prefix}LeftHand"
+    assert h.names["head"] == f"{prefix}Head"
+    # the procedural human's arm: 0.29 + 0.26 + 0.09 m, whatever the file's units
+    assert h.arms["left"].length == pytest.approx(0.64, abs=1e-3)
+    # the heading: the human faces the converted world's +x at rest
+    assert np.allclose(h.heading(clip.rest()[None])[0][:, 0], [1, 0, 0], atol=1e-9)
+
+
+def test_other_skeleton_names_and_the_missing_arm_error():
+    text = human_bvh("wave", seconds=0.1)
+    poser = text.replace("LeftArm", "lShldr").replace("LeftForeArm", "lForeArm")
+    poser = poser.replace("LeftHand", "lHand")
+    h = find_human(parse_bvh(poser))
+    assert h.names["left_shoulder"] == "lShldr" and h.names["left_wrist"] == "lHand"
+    armless = text
+    for part in ("Arm", "ForeArm", "Hand", "Shoulder"):
+        armless = armless.replace(f"Left{part}", f"Lx{part}z").replace(f"Right{part}", f"Rx{part}z")
+    with pytest.raises(BVHError) as err:
+        find_human(parse_bvh(armless, source="armless.bvh"))
+    msg = str(err.value)
+    assert "\n" not in msg and msg.startswith("armless.bvh: no arm found")
+    assert "ForeArm" in msg and "--mapping" in msg
+
+
+def test_mapping_file_overrides_and_checks(tmp_path):
+    m = tmp_path / "map.toml"
+    m.write_text('[joints]\nleft_hand = "LeftHand_end"\n')
+    clip = parse_bvh(human_bvh("wave", seconds=0.1))
+    h = find_human(clip, Mapping.read(m))
+    assert h.arms["left"].hand == (clip.skeleton.index("LeftHand_end"),)
+    m.write_text('[joints]\nleft_hnd = "LeftHand"\n')
+    with pytest.raises(Exception, match="joints.left_hnd: not a role; roles:"):
+        Mapping.read(m)
+
+
+def _collision_frames(model, qpos) -> int:
+    """Frames where a derived pair touches, measured here: ``mj_geomDistance`` < 0."""
+    pairs = limb_collision_pairs(model, find_limbs(model))
+    ids = [
+        (
+            model.geom(a).id if isinstance(a, str) else a,
+            model.geom(b).id if isinstance(b, str) else b,
+        )
+        for ga, gb in pairs
+        for a in ga
+        for b in gb
+    ]
+    data = mujoco.MjData(model)
+    fromto = np.zeros(6)
+    bad = 0
+    for q in qpos:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        if any(mujoco.mj_geomDistance(model, data, i, j, 0.05, fromto) < 0 for i, j in ids):
+            bad += 1
+    return bad
+
+
+def _check_limits(model, res, speeds: dict[str, float]) -> None:
+    traj = res.trajectory
+    dt = 1.0 / traj.fps
+    for e in traj.effectors:
+        for k, name in enumerate(e.joints):
+            j = model.joint(name)
+            lo, hi = j.range
+            assert np.all(e.q[:, k] >= lo - 1e-9) and np.all(e.q[:, k] <= hi + 1e-9), name
+            v = np.abs(np.diff(e.q[:, k])) / dt
+            assert v.max() <= speeds.get(name, DEFAULT_SPEED) * (1 + 1e-9), name
+    assert res.summary["frames_out_of_range"] == 0
+    assert res.summary["frames_over_speed_limit"] == 0
+
+
+@pytest.mark.parametrize("style,up,units", [("cmu", "y", "cm"), ("mixamo", "z", "m")])
+def test_humanoid_wave_exact(tmp_path, style, up, units):
+    clip = _clip(tmp_path, "wave", 240, style=style, up=up, units=units)
+    res = retarget(clip, None, None)
+    s = res.summary
+    assert res.doc["methods"] == {"left": "closed_form", "right": "closed_form", "head": "look_at"}
+    for side in ("left", "right"):
+        pe = s[side]["position_error_reachable_m"]
+        assert s[side]["reachable_frames"] == 240
+        assert pe["max"] < 1e-6  # closed form: exact
+        assert s[side]["orientation_error_deg"]["max"] < 1e-3
+    assert s["right"]["elbow_frames"] > 60  # the waving arm is bent
+    assert s["right"]["elbow_error_deg"]["median"] < 5.0
+    assert s["gaze_error_deg"]["max"] < 0.1
+    model = load_model(None)
+    _check_limits(model, res, {})
+    assert s["collision_frames"] == 0
+    assert _collision_frames(model, res.trajectory.qpos) == 0
+    # the hand follows the scaled human: its jerk is the source's
+    assert s["right"]["jerk_rms_m_s3"] == pytest.approx(
+        s["right"]["source_jerk_rms_m_s3"], rel=0.05
+    )
+
+
+def test_g1_wave_lm_with_elbow_steps(tmp_path):
+    clip = _clip(tmp_path, "wave", 240)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = retarget(clip, robot_file("g1"), None)
+        model = load_model(robot_file("g1"))
+    s = res.summary
+    assert res.doc["methods"] == {"left": "lm", "right": "lm"}  # G1's head is fixed
+    assert res.doc["robot"]["speed_limits"] == "URDF <limit velocity>"
+    for side in ("left", "right"):
+        pe = s[side]["position_error_reachable_m"]
+        assert pe["median"] <= 1e-3 and pe["p99"] <= 5e-3
+    assert s["right"]["elbow_frames"] > 60
+    assert s["right"]["elbow_error_deg"]["median"] < 5.0
+    speeds = urdf_speeds(robot_file("g1"))
+    assert speeds["left_wrist_pitch_joint"] == 22.0
+    _check_limits(model, res, speeds)
+    assert _collision_frames(model, res.trajectory.qpos) == 0
+
+
+def test_mink_solver_every_frame(tmp_path):
+    clip = _clip(tmp_path, "wave", 60)
+    res = retarget(clip, None, None, solver="mink")
+    s = res.summary
+    assert set(res.doc["methods"].values()) == {"mink"}
+    assert s["right"]["position_error_reachable_m"]["median"] < 2e-3
+    _check_limits(load_model(None), res, {})
+    assert s["collision_frames"] == 0
+
+
+def test_cli_writes_the_files_and_reads_back(tmp_path, capsys):
+    clip = _clip(tmp_path, "reach", 40)
+    out = tmp_path / "out"
+    assert main(["retarget", str(clip), "--out", str(out), "--frames", "30"]) == 0
+    text = capsys.readouterr().out
+    assert "left hand: median" in text and "wrote" in text
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == sorted(CLIP_FILES)
+    doc = json.loads((out / "metrics.json").read_text())
+    assert doc["summary"]["frames"] == 30 and doc["human"]["names"]["head"] == "Head"
+    traj = load_trajectory(out / "trajectory.npz")
+    assert traj.n_frames == 30 and [e.task for e in traj.effectors] == ["reach", "reach", "look_at"]
+    assert (out / "keys.xml").read_text().count("<key ") == 30
+    rows = (out / "metrics.csv").read_text().splitlines()
+    assert len(rows) == 31 and "right_elbow_error_deg" in rows[0]
+    # the hand the trajectory records is where the model's FK puts it
+    model = load_model(None)
+    data = mujoco.MjData(model)
+    data.qpos[:] = traj.qpos[-1]
+    mujoco.mj_kinematics(model, data)
+    e = traj.effectors[1]
+    assert np.allclose(data.site(e.site).xpos, e.achieved[-1], atol=1e-9)
+
+
+def test_cli_one_line_on_bad_input(tmp_path, capsys):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n}\nMOTION\n")
+    assert main(["retarget", str(bad), "--out", str(tmp_path / "o")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bad.bvh: line" in err[0] and "OFFSET" in err[0]
+    assert not (tmp_path / "o").exists()
+    assert main(["retarget", str(tmp_path / "missing.bvh")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "missing.bvh" in err[0]
+
+
+def test_folder_of_two_clips_resumes(tmp_path, capsys):
+    src = tmp_path / "clips"
+    src.mkdir()
+    (src / "a.bvh").write_text(human_bvh("wave", seconds=0.3))
+    (src / "b.bvh").write_text(human_bvh("reach", style="mixamo", seconds=0.3))
+    (src / "notes.txt").write_text("not a clip")
+    out = tmp_path / "out"
+    args = ["retarget", str(src), "--out", str(out), "--frames", "20", "--no-plot"]
+    assert main(args) == 0
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert (
+        len(rows) == 3 and rows[1].startswith("a.bvh,ok,20") and rows[2].startswith("b.bvh,ok,20")
+    )
+    assert (out / "a" / "trajectory.npz").is_file() and (out / "b" / "metrics.json").is_file()
+    capsys.readouterr()
+    assert main(args) == 0  # resumed: both complete, nothing solved again
+    assert capsys.readouterr().out.count("skipped (done)") == 2
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert rows[1].startswith("a.bvh,skipped (done),20")
+    assert not math.isnan(float(rows[1].split(",")[3]))
