@@ -380,7 +380,7 @@ def test_more_refusals(showcase, tmp_path):
     del header["fps"]
     partial = tmp_path / "partial.npz"
     np.savez(partial, **{**arrays, "header": np.array(json.dumps(header))})
-    with pytest.raises(TrajectoryFileError, match="lacks 'fps'"):
+    with pytest.raises(TrajectoryFileError, match="fps: missing; expected a number >= 0.01"):
         load_trajectory(partial)
     with pytest.raises(TrajectoryFileError, match=r"effector 'right_palm_site' q: expected"):
         replace(t.effectors[0], status=t.effectors[0].status[:3])
@@ -433,3 +433,28 @@ def test_the_former_names_of_the_recording_warn_and_still_work():
     recording = runner.run(sinks=[old])
     np.testing.assert_array_equal(old.trajectory().qpos, recording.trajectory().qpos)
     assert old.trajectory().n_frames == 4
+
+
+def test_a_site_and_a_body_of_one_name_keep_their_own_columns(showcase, tmp_path):
+    """Two effectors named alike (a site and a body ``right_palm_site``): the CSV tells
+    their columns apart (``site:right_palm_site.``, ``body:right_palm_site.``) and
+    reads each back as its own, as the npz does; a CSV written before, with both under
+    ``right_palm_site.``, still reads right, by the columns' positions."""
+    _, out = showcase
+    t = load_trajectory(out.trajectory[0])
+    site = t.effectors[0]
+    body = replace(site, kind="body", target_name="other", target=site.target + 0.25)
+    twin = replace(t, effectors=(site, body))
+    npz, csv_path = write_trajectory(twin, tmp_path)
+    names = csv_path.read_text().splitlines()[1].split(",")
+    assert "site:right_palm_site.target_x" in names and "body:right_palm_site.target_x" in names
+    assert len(set(names)) == len(names)
+    legacy = tmp_path / "legacy.csv"
+    text = csv_path.read_text().replace("site:right_palm_site.", "right_palm_site.")
+    legacy.write_text(text.replace("body:right_palm_site.", "right_palm_site."))
+    for path in (npz, csv_path, legacy):
+        back = load_trajectory(path)
+        assert [e.kind for e in back.effectors] == ["site", "body"]
+        np.testing.assert_array_equal(back.effectors[0].target, site.target)
+        np.testing.assert_array_equal(back.effectors[1].target, site.target + 0.25)
+        assert back.effectors[1].target_name == "other"

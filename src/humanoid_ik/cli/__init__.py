@@ -6,6 +6,7 @@ start-up ends with the usual one line and status 130, not an import traceback.
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Sequence
 
@@ -14,9 +15,28 @@ from humanoid_ik.cli.interrupts import interrupted
 __all__ = ["main"]
 
 
+def _import_mujoco() -> None:
+    """Import MuJoCo even when ``MUJOCO_GL`` holds a value it does not know: MuJoCo
+    raises at import then, which would stop every command, ``solve`` too. It is then
+    imported with rendering off and the user's value put back, so only the commands
+    that render refuse it, in one line (``outputs/render/backend.py``)."""
+    try:
+        import mujoco  # noqa: F401
+    except RuntimeError as exc:
+        value = os.environ.get("MUJOCO_GL")
+        if value is None or "MUJOCO_GL" not in str(exc):
+            raise
+        os.environ["MUJOCO_GL"] = "disable"
+        try:
+            import mujoco  # noqa: F401, F811
+        finally:
+            os.environ["MUJOCO_GL"] = value
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (see :mod:`humanoid_ik.cli.app`)."""
     try:
+        _import_mujoco()
         from humanoid_ik.cli.app import main as run
     except BaseException as exc:
         if not interrupted(exc):

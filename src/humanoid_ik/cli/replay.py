@@ -42,7 +42,24 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     )
     cams = model_cameras(model)
     if rs.camera not in cams:
-        raise UsageError(f"--camera '{rs.camera}' not in model; cameras: {', '.join(cams)}")
+        where = (
+            "--camera"
+            if args.camera is not None
+            else f"trajectory '{args.trajectory}': render.camera"
+        )
+        raise UsageError(f"{where} '{rs.camera}' not in model; cameras: {', '.join(cams)}")
+    buffer = {"width": int(model.vis.global_.offwidth), "height": int(model.vis.global_.offheight)}
+    for key, limit in buffer.items():
+        if getattr(rs, key) > limit:
+            where = (
+                f"--{key}"
+                if getattr(args, key) is not None
+                else f"trajectory '{args.trajectory}': render.{key}"
+            )
+            raise UsageError(
+                f"{where} {getattr(rs, key)}: expected at most {limit} (the model's off-screen "
+                "buffer, visual/global); pass a smaller --width/--height"
+            )
     out = Path("renders") / f"{traj.scene}_replay" if args.out is None else Path(args.out)
     source = Path(args.trajectory)
     if out.resolve() == source.resolve().parent and source.name in published(out):
@@ -50,10 +67,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             f"--out '{out}' holds the set '{source}' belongs to, which a replay there would "
             "replace: choose another --out"
         )
-    check_output_dir(out)
-    backend = select_backend()
+    backend = select_backend()  # a bad MUJOCO_GL is said before any folder is made
     if backend.note:
         print(f"humanoid-ik: note: {backend.note}", file=sys.stderr)
+    check_output_dir(out)
     result = replay_trajectory(traj, model, out, digest=digest, render=rs, video=not args.no_video)
     print(
         f"{traj.scene}: replayed {result.frames} frame(s) {rs.width}x{rs.height} camera "

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from humanoid_ik.core.names import NAME, name_ok  # the one name rule, re-exported
 from humanoid_ik.errors import HumanoidIKError
 
 __all__ = [
@@ -25,20 +26,10 @@ __all__ = [
     "read_toml",
 ]
 
-NAME = "a name of letters, digits, '_', '-' or '.'"
-"""What a name (of a scene, a sweep, a target set) must be."""
-_NAME_RE = re.compile(r"[A-Za-z0-9_.-]+")
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 ErrorType = Callable[[str, str, str], HumanoidIKError]
 """``error(file, key, message)``: :class:`SceneError` or :class:`SweepError`."""
-
-
-def name_ok(value: Any, *, first_alphanumeric: bool = False) -> bool:
-    """``value`` is a :data:`NAME` (starting with a letter or digit when
-    ``first_alphanumeric``: a scene's name, which is also a folder's)."""
-    ok = isinstance(value, str) and _NAME_RE.fullmatch(value) is not None
-    return ok and not (first_alphanumeric and value[0] in "_.-")
 
 
 def integer_problem(value: Any, low: int, high: int | None = None) -> str | None:

@@ -2,7 +2,10 @@
 vocabularies that tell a limb's joints (``shoulder``, ``hip``, ``neck`` ...) and a
 frame's role (a sensor, a camera, a finger, a hand) from them. Used by the limbs
 (``core/limbs.py``) and ``inspect``'s end effectors alike. Also the one fallback for an
-unnamed joint (:func:`joint_name`).
+unnamed joint (:func:`joint_name`), and the one rule for the names the package makes
+paths of (:data:`NAME`: a scene's name becomes ``renders/<name>``, ``<name>.mp4``,
+``renders/<name>_replay``; a sweep's ``renders/sweeps/<name>``), wherever the name comes
+from: a TOML file, a trajectory file's header, a script.
 """
 
 from __future__ import annotations
@@ -11,15 +14,34 @@ import re
 
 import mujoco
 
+from humanoid_ik.errors import MotionError
+
 __all__ = [
     "FRAME_WORDS",
     "HAND_WORDS",
     "KIND_ORDER",
     "KIND_WORDS",
+    "MAX_NAME",
+    "NAME",
+    "NAME_PATTERN",
+    "check_name",
     "frame_role",
     "joint_name",
+    "name_ok",
     "name_words",
 ]
+
+MAX_NAME = 100
+"""Longest name [characters]: ``<name>_replay``, ``<name>.mp4`` stay well within the
+255 bytes a file name may have."""
+NAME_PATTERN = re.compile(rf"[A-Za-z0-9][A-Za-z0-9_.-]{{0,{MAX_NAME - 1}}}")
+"""A name the package may make a file or folder name of: no separator, never ``.``,
+``..``, a hidden name or an option-like ``-x``, never empty."""
+NAME = (
+    f"a name of letters, digits, '_', '-' or '.' (at most {MAX_NAME}, starting with a "
+    "letter or digit)"
+)
+"""What a name (of a scene, a sweep, a target set) must be, as messages say it."""
 
 KIND_WORDS: dict[str, frozenset[str]] = {
     "finger": frozenset(
@@ -103,6 +125,22 @@ def frame_role(name: str) -> str | None:
     if words & HAND_WORDS:
         return "part" if words & _PART_WORDS else "hand"
     return None
+
+
+def name_ok(value: object, *, first_alphanumeric: bool = True) -> bool:
+    """``value`` is a :data:`NAME` (:data:`NAME_PATTERN`). ``first_alphanumeric`` is
+    accepted for the callers that asked for the first character's rule, which every
+    name now follows."""
+    return isinstance(value, str) and NAME_PATTERN.fullmatch(value) is not None
+
+
+def check_name(what: str, value: object) -> str:
+    """``value`` if it is a :data:`NAME`, else :class:`~humanoid_ik.errors.MotionError`
+    ``(what, NAME, value)`` (the convention of the ``check_*`` of ``core/checks.py``:
+    callers name the file or the object)."""
+    if not name_ok(value):
+        raise MotionError(what, NAME, value)
+    return str(value)
 
 
 def joint_name(model: mujoco.MjModel, j: int) -> str:

@@ -219,6 +219,12 @@ class Inspection:
         return "\n".join(lines)
 
 
+def _fixed(value: float, digits: int) -> str:
+    """``value`` with ``digits`` decimals, or in exponent form beyond 1e6 (a range of
+    +-1e300 reads ``+1e+300``, not 300 digits)."""
+    return f"{value:+.{digits}f}" if abs(value) < 1e6 else f"{value:+.3g}"
+
+
 def _effector_lines(e: EffectorInfo) -> list[str]:
     assert e.reach is not None and e.base is not None
     base = ", ".join(f"{v:.3f}" for v in e.base)
@@ -235,8 +241,8 @@ def _effector_lines(e: EffectorInfo) -> list[str]:
         if j.range_rad is None or j.range_deg is None:
             rad, deg = "unlimited", ""
         else:
-            rad = f"{j.range_rad[0]:+.3f} .. {j.range_rad[1]:+.3f}"
-            deg = f"{j.range_deg[0]:+.1f} .. {j.range_deg[1]:+.1f}"
+            rad = f"{_fixed(j.range_rad[0], 3)} .. {_fixed(j.range_rad[1], 3)}"
+            deg = f"{_fixed(j.range_deg[0], 1)} .. {_fixed(j.range_deg[1], 1)}"
         q0 = "" if j.qpos0 is None else f"{j.qpos0 + 0.0:+.3f}"
         inside = "" if j.qpos0_inside else " OUTSIDE the range"
         out.append(

@@ -13,7 +13,8 @@ from pathlib import Path
 from typing import TypeVar
 
 from humanoid_ik.config.specs import Scene
-from humanoid_ik.errors import RenderError
+from humanoid_ik.core.names import check_name
+from humanoid_ik.errors import MotionError, RenderError, SceneError, show_value
 from humanoid_ik.outputs.atomic import staged_outputs, write_json, write_text
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.metrics import FrameRecord
@@ -27,6 +28,7 @@ __all__ = [
     "progress_reporter",
     "record_scene",
     "relocated",
+    "scene_output_dir",
     "write_metrics",
 ]
 
@@ -101,6 +103,24 @@ def check_output_dir(folder: str | os.PathLike) -> Path:
     return p
 
 
+def scene_output_dir(scene: Scene, out_dir: str | os.PathLike | None) -> Path:
+    """``out_dir``, else ``renders/<scene name>``, created and checked writable
+    (:func:`check_output_dir`). The scene's name is checked first, wherever the scene
+    came from (a file, a script): it names the folder and the video's files, so it must
+    be a :data:`~humanoid_ik.core.names.NAME` (``../x`` or ``/x`` would lead out of it).
+
+    Raises:
+        SceneError: the name is not a NAME.
+        RenderError: the folder cannot be created or written.
+    """
+    try:
+        check_name("name", scene.name)
+    except MotionError as exc:
+        expected = f"expected {exc.expected}, got {show_value(exc.got)}"
+        raise SceneError(scene.source, "name", expected) from None
+    return check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
+
+
 def write_metrics(metrics: Recording, folder: Path) -> tuple[Path, Path]:
     """Write ``metrics.csv`` and ``metrics.json`` into ``folder``, each atomically."""
     return (
@@ -137,10 +157,11 @@ def record_scene(
     that folder as one set (``outputs/atomic.py``: :func:`staged_outputs`).
 
     Raises:
-        SceneError: the scene does not fit its model.
+        SceneError: the scene's name is not a :data:`~humanoid_ik.core.names.NAME`, or
+            the scene does not fit its model.
         RenderError: the folder cannot be created or written.
     """
-    folder = check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
+    folder = scene_output_dir(scene, out_dir)
     runner = SceneRunner(scene)
     metrics = runner.run(on_frame=progress_reporter(progress, runner.n_frames))
     if not len(metrics):  # stopped before its first frame: the previous set stays

@@ -11,20 +11,34 @@ import io
 import json
 import os
 import zipfile
-from dataclasses import asdict
+import zlib
+from dataclasses import asdict, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
 
-from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model
+from humanoid_ik.core.names import check_name
 from humanoid_ik.core.robot_files import PackagePaths
-from humanoid_ik.errors import TrajectoryFileError
+from humanoid_ik.errors import MotionError, TrajectoryFileError
 from humanoid_ik.outputs.atomic import atomic_path, json_text, write_text
 from humanoid_ik.outputs.stage import trajectory_stage
+from humanoid_ik.outputs.trajectory_layout import (
+    HEADER_ARRAY,
+    MAX_HEADER_CHARS,
+    MAX_MEMBERS,
+    MAX_TRAJECTORY_BYTES,
+    QUAT,
+    SAMPLES,
+    Array,
+    column_prefix,
+    layout,
+    read_member,
+    zip_entries,
+)
 from humanoid_ik.run.trajectory import (
     TRAJECTORY_FORMAT,
     TRAJECTORY_VERSION,
@@ -33,20 +47,13 @@ from humanoid_ik.run.trajectory import (
     check_trajectory_model,
 )
 
+if TYPE_CHECKING:
+    from humanoid_ik.outputs.trajectory_schema import Header
+
 __all__ = ["load_trajectory", "open_trajectory", "trajectory_csv", "write_trajectory"]
 
-_QUAT = ("qw", "qx", "qy", "qz")
-_SAMPLES = {
-    "orientation_error": "orientation_error_rad",
-    "iterations": "iterations",
-    "solve_time": "solve_time_s",
-    "limit_margin": "limit_margin_rad",
-}
-"""The per-frame sample fields kept beside the targets (array name -> CSV column): a
-file written before they were kept reads without them (:class:`EffectorTrack`)."""
 
-
-def _header(traj: Trajectory) -> dict[str, Any]:
+def _header_doc(traj: Trajectory) -> dict[str, Any]:
     """What a trajectory file says about itself (everything but the per-frame arrays)."""
     return {
         "format": TRAJECTORY_FORMAT,
@@ -78,7 +85,7 @@ def _header(traj: Trajectory) -> dict[str, Any]:
 
 def _npz_arrays(traj: Trajectory) -> dict[str, Any]:
     out: dict[str, Any] = {
-        "header": np.array(json_text(_header(traj), indent=None)),
+        "header": np.array(json_text(_header_doc(traj), indent=None)),
         "time": traj.time,
         "qpos": traj.qpos,
         "stage_points": traj.stage_points,
@@ -93,24 +100,26 @@ def _npz_arrays(traj: Trajectory) -> dict[str, Any]:
         out[f"effector{k}_on_target"] = e.on_target
         out[f"effector{k}_reachable"] = e.reachable
         out[f"effector{k}_status"] = np.array(e.status, dtype=np.str_)
-        for name in _SAMPLES:
+        for name in SAMPLES:
             out[f"effector{k}_{name}"] = getattr(e, name)
     return out
 
 
 def _columns(traj: Trajectory) -> list[str]:
     """The CSV columns: frame, time, every ``qpos`` entry, then per effector (prefixed
-    with its site's or body's name, ``<name>.``) target, target orientation (pose
-    targets), achieved, error, flags."""
+    with its site's or body's name, ``<name>.``, or ``site:<name>.``/``body:<name>.``
+    when a site and a body of one name are both effectors: :func:`column_prefix`)
+    target, target orientation (pose targets), achieved, error, flags, samples."""
     cols = ["frame", "time_s", *traj.qpos_names]
-    for e in traj.effectors:
-        p = f"{e.site}."
+    ends = [(e.kind, e.site) for e in traj.effectors]
+    for k, e in enumerate(traj.effectors):
+        p = column_prefix(ends, k)
         cols += [f"{p}target_{c}" for c in "xyz"]
         if e.target_quat is not None:
-            cols += [f"{p}target_{c}" for c in _QUAT]
+            cols += [f"{p}target_{c}" for c in QUAT]
         cols += [f"{p}achieved_{c}" for c in "xyz"]
         cols += [f"{p}position_error_m", f"{p}on_target", f"{p}reachable", f"{p}status"]
-        cols += [f"{p}{c}" for c in _SAMPLES.values()]
+        cols += [f"{p}{c}" for c in SAMPLES.values()]
     return cols
 
 
@@ -118,7 +127,7 @@ def trajectory_csv(traj: Trajectory) -> str:
     """The CSV text: the header as JSON on a first ``#`` line, then the column names and
     one row per frame (numbers written in full precision, so reading it back is exact)."""
     buf = io.StringIO()
-    buf.write("# " + json_text(_header(traj), indent=None) + "\n")
+    buf.write("# " + json_text(_header_doc(traj), indent=None) + "\n")
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(_columns(traj))
     for i in range(traj.n_frames):
@@ -130,7 +139,7 @@ def trajectory_csv(traj: Trajectory) -> str:
             row += [repr(v) for v in e.achieved[i].tolist()]
             row += [repr(float(e.position_error[i])), int(e.on_target[i]), int(e.reachable[i])]
             row.append(e.status[i])
-            row += [repr(getattr(e, name)[i].item()) for name in _SAMPLES]
+            row += [repr(getattr(e, name)[i].item()) for name in SAMPLES]
         w.writerow(row)
     return buf.getvalue()
 
@@ -140,7 +149,15 @@ def write_trajectory(traj: Trajectory, folder: str | os.PathLike) -> tuple[Path,
 
     Returns:
         The two files.
+
+    Raises:
+        TrajectoryFileError: the scene's name is not a :data:`~humanoid_ik.core.names.NAME`
+            (the file could not be read back: its name becomes a file's).
     """
+    try:
+        check_name("scene", traj.scene)
+    except MotionError as exc:
+        raise TrajectoryFileError(f"trajectory {exc}") from None
     folder = Path(folder)
     npz = folder / "trajectory.npz"
     with atomic_path(npz) as tmp, open(tmp, "wb") as fh:
@@ -148,143 +165,318 @@ def write_trajectory(traj: Trajectory, folder: str | os.PathLike) -> tuple[Path,
     return npz, write_text(folder / "trajectory.csv", trajectory_csv(traj))
 
 
-def _check_header(header: Any, path: Path) -> dict[str, Any]:
-    if not isinstance(header, dict) or header.get("format") != TRAJECTORY_FORMAT:
-        raise TrajectoryFileError(f"'{path}' is not a humanoid-ik trajectory file")
-    if header.get("version") != TRAJECTORY_VERSION:
-        raise TrajectoryFileError(
-            f"'{path}' is a trajectory of version {header.get('version')!r}; this humanoid-ik "
-            f"reads version {TRAJECTORY_VERSION}"
-        )
-    return header
-
-
-def _kind(effector: dict[str, Any]) -> str:
-    """What an effector of a file's header names: ``body`` when it has a ``body`` key,
-    else ``site`` (also a file written before the kind was kept, which said ``site``
-    for a body too)."""
-    return "body" if "body" in effector else "site"
-
-
-def _trajectory(header: dict[str, Any], arrays: dict[str, Any], path: Path) -> Trajectory:
-    """A :class:`Trajectory` from a header and its arrays (``effector{k}_*``, ``time``,
-    ``qpos``); a missing key is a :class:`TrajectoryFileError` naming it."""
-    try:
-        tracks = []
-        for k, e in enumerate(header["effectors"]):
-            prefix = f"effector{k}_"
-            a = {key[len(prefix) :]: v for key, v in arrays.items() if key.startswith(prefix)}
-            kind = _kind(e)
-            tracks.append(
-                EffectorTrack(
-                    site=e[kind],
-                    kind=kind,
-                    target_name=e["target"],
-                    task=e["task"],
-                    solver=e["solver"],
-                    joints=tuple(e["joints"]),
-                    q=a["q"],
-                    target=a["target"],
-                    target_quat=a["target_quat"] if e["pose_target"] else None,
-                    achieved=a["achieved"],
-                    position_error=a["position_error"],
-                    on_target=a["on_target"],
-                    reachable=a["reachable"],
-                    status=tuple(str(s) for s in a["status"]),
-                    **{name: a.get(name) for name in _SAMPLES},
-                )
-            )
-        r = header["render"]
-        render = RenderSpec(**{**r, "snapshots": tuple(r["snapshots"])})
-        return Trajectory(
-            time=arrays["time"],
-            qpos=arrays["qpos"],
-            qpos_names=tuple(header["qpos_names"]),
-            joint_names=tuple(header["joint_names"]),
-            effectors=tuple(tracks),
-            fps=float(header["fps"]),
-            scene=str(header["scene"]),
-            scene_file=str(header["scene_file"]),
-            model_file=str(header["model_file"]),
-            model_sha256=str(header["model_sha256"]),
-            render=render,
-            interrupted=bool(header["interrupted"]),
-            stage_points=arrays.get("stage_points", header["stage_points"]),
-        )
-    except (KeyError, TypeError) as exc:
-        raise TrajectoryFileError(f"'{path}' lacks {exc} or has it of the wrong type") from None
-
-
-def _read_npz(path: Path) -> Trajectory:
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise TrajectoryFileError(f"cannot read trajectory '{path}': {exc}") from None
-    if "header" not in arrays:
-        raise TrajectoryFileError(f"'{path}' is not a humanoid-ik trajectory file")
-    try:
-        header = json.loads(str(arrays.pop("header")))
-    except ValueError:
-        raise TrajectoryFileError(f"'{path}' has a header that is not JSON") from None
-    return _trajectory(_check_header(header, path), arrays, path)
-
-
-def _read_csv(path: Path) -> Trajectory:
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise TrajectoryFileError(f"cannot read trajectory '{path}': {exc}") from None
-    first, _, body = text.partition("\n")
-    try:
-        header = json.loads(first[1:]) if first.startswith("#") else None
-    except ValueError:
-        header = None
-    header = _check_header(header, path)
-    rows = list(csv.reader(io.StringIO(body)))
-    cols, rows = rows[0], rows[1:]
-    table = {c: [r[j] for r in rows] for j, c in enumerate(cols)}
-
-    def floats(names: list[str]) -> np.ndarray:
-        return np.array([table[n] for n in names], dtype=np.float64).T.reshape(len(rows), -1)
-
-    arrays: dict[str, Any] = {"time": floats(["time_s"])[:, 0]}
-    arrays["qpos"] = floats(list(header["qpos_names"]))
-    try:
-        for k, e in enumerate(header["effectors"]):
-            p, key = f"{e[_kind(e)]}.", f"effector{k}_"
-            arrays[key + "target"] = floats([f"{p}target_{c}" for c in "xyz"])
-            if e["pose_target"]:
-                arrays[key + "target_quat"] = floats([f"{p}target_{c}" for c in _QUAT])
-            arrays[key + "achieved"] = floats([f"{p}achieved_{c}" for c in "xyz"])
-            arrays[key + "position_error"] = floats([f"{p}position_error_m"])[:, 0]
-            arrays[key + "on_target"] = np.array(table[f"{p}on_target"], dtype=int) == 1
-            arrays[key + "reachable"] = np.array(table[f"{p}reachable"], dtype=int) == 1
-            arrays[key + "status"] = table[f"{p}status"]
-            if any(f"{p}{col}" in table for col in _SAMPLES.values()):  # all or none
-                for name, col in _SAMPLES.items():
-                    arrays[key + name] = floats([f"{p}{col}"])[:, 0]
-            idx = [list(header["qpos_names"]).index(j) for j in e["joints"]]
-            arrays[key + "q"] = arrays["qpos"][:, idx]
-    except (KeyError, ValueError) as exc:
-        raise TrajectoryFileError(f"'{path}' lacks column {exc}") from None
-    return _trajectory(header, arrays, path)
-
-
 def load_trajectory(path: str | os.PathLike) -> Trajectory:
     """Read a ``trajectory.npz`` or ``trajectory.csv`` written by :func:`write_trajectory`.
 
+    Every header field is checked for its type and bound and every array for its shape,
+    type and values (``outputs/trajectory_schema.py``; ``docs/formats.md``): at most
+    :data:`~humanoid_ik.config.specs.MAX_FRAMES` frames, finite joint values, times,
+    targets and stage points, the ``render`` block as a scene file's. Only the members
+    the header implies are read from an ``.npz``, each after its size is checked from
+    the archive's directory and its array header, so no file makes the reader hold more
+    than :data:`~humanoid_ik.outputs.trajectory_layout.MAX_TRAJECTORY_BYTES` of arrays.
+
     Raises:
-        TrajectoryFileError: the file does not exist, is neither, or misses a part.
+        TrajectoryFileError: the file does not exist, is neither, or breaks a rule (one
+            line naming the field, the value and the rule).
     """
     p = Path(path)
     if not p.is_file():
         raise TrajectoryFileError(f"trajectory file '{p}' does not exist")
-    if p.suffix.lower() == ".csv":
-        return _read_csv(p)
-    if p.suffix.lower() == ".npz":
-        return _read_npz(p)
+    try:
+        if p.suffix.lower() == ".csv":
+            return _read_csv(p)
+        if p.suffix.lower() == ".npz":
+            return _read_npz(p)
+    except OSError as exc:
+        raise TrajectoryFileError(f"cannot read trajectory '{p}': {exc.strerror or exc}") from None
     raise TrajectoryFileError(f"trajectory file '{p}' is neither .npz nor .csv")
+
+
+def _header(text: str, path: Path) -> Header:
+    """The header from its JSON text."""
+    from humanoid_ik.outputs.trajectory_schema import parse_header
+
+    try:
+        doc = json.loads(text)
+    except (ValueError, RecursionError):
+        raise TrajectoryFileError(f"'{path}' has a header that is not JSON") from None
+    return parse_header(doc, str(path))
+
+
+def _trajectory(header: Header, arrays: dict[str, np.ndarray]) -> Trajectory:
+    """The :class:`Trajectory` of a checked header and its checked arrays."""
+    tracks = []
+    for k, e in enumerate(header.effectors):
+        a = {
+            key[len(f"effector{k}_") :]: v
+            for key, v in arrays.items()
+            if key.startswith(f"effector{k}_")
+        }
+        tracks.append(
+            EffectorTrack(
+                site=e.name,
+                kind=e.kind,
+                target_name=e.target,
+                task=e.task,
+                solver=e.solver,
+                joints=tuple(e.joints),
+                q=a["q"],
+                target=a["target"],
+                target_quat=a.get("target_quat"),
+                achieved=a["achieved"],
+                position_error=a["position_error"],
+                on_target=a["on_target"],
+                reachable=a["reachable"],
+                status=tuple(str(s) for s in a["status"]),
+                **{name: a.get(name) for name in SAMPLES},
+            )
+        )
+    points = arrays.get("stage_points")
+    return Trajectory(
+        time=arrays["time"],
+        qpos=arrays["qpos"],
+        qpos_names=tuple(header.qpos_names),
+        joint_names=tuple(header.joint_names),
+        effectors=tuple(tracks),
+        fps=header.fps,
+        scene=header.scene,
+        scene_file=header.scene_file,
+        model_file=header.model_file,
+        model_sha256=header.model_sha256,
+        render=header.render.spec,
+        interrupted=header.interrupted,
+        stage_points=np.array(header.stage_points, dtype=float).reshape(-1, 3)
+        if points is None
+        else points,
+    )
+
+
+def _consistent(header: Header, arrays: dict[str, np.ndarray], path: Path) -> None:
+    """Times that never go back; each effector's ``q`` from the ``qpos`` columns of its
+    joints (the CSV holds them once), or, read from an ``.npz``, checked equal to them."""
+    back = np.flatnonzero(np.diff(arrays["time"]) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        t = arrays["time"]
+        raise TrajectoryFileError(
+            f"trajectory '{path}': time[{i}] (frame {i}): expected a time >= the frame "
+            f"before's ({float(t[i - 1])!r}), got {float(t[i])!r}"
+        )
+    for k, e in enumerate(header.effectors):
+        q = arrays["qpos"][:, [header.qpos_names.index(j) for j in e.joints]]
+        key = f"effector{k}_q"
+        if key in arrays and not np.array_equal(arrays[key], q):
+            raise TrajectoryFileError(
+                f"trajectory '{path}': {key}: expected the qpos columns of its joints "
+                f"({', '.join(e.joints)}), got other values"
+            )
+        arrays[key] = q
+
+
+# ------------------------------------------------------------------------------ .npz
+def _read_npz(path: Path) -> Trajectory:
+    entries = zip_entries(path)
+    if entries > MAX_MEMBERS:
+        raise TrajectoryFileError(
+            f"trajectory '{path}' lists {entries} members; expected at most {MAX_MEMBERS}"
+        )
+    try:
+        with zipfile.ZipFile(path) as zf:
+            members = {i.filename: i for i in zf.infolist()}
+            if "header.npy" not in members:
+                raise TrajectoryFileError(f"'{path}' is not a humanoid-ik trajectory file")
+            text = read_member(zf, members["header.npy"], HEADER_ARRAY, 4 * MAX_HEADER_CHARS, path)
+            header = _header(str(text[()]), path)
+            arrays: dict[str, np.ndarray] = {}
+            budget = MAX_TRAJECTORY_BYTES
+            for a in layout(header):
+                info = members.get(f"{a.name}.npy")
+                if info is None:
+                    if a.optional:
+                        continue
+                    raise TrajectoryFileError(f"trajectory '{path}' lacks the array '{a.name}'")
+                raw = read_member(zf, info, a, budget, path)
+                budget -= raw.nbytes
+                arrays[a.name] = a.check(raw, str(path))
+    except (
+        zipfile.BadZipFile,
+        zipfile.LargeZipFile,
+        NotImplementedError,
+        RuntimeError,
+        EOFError,
+        ValueError,
+        zlib.error,
+    ) as exc:
+        if isinstance(exc, TrajectoryFileError):
+            raise
+        raise TrajectoryFileError(
+            f"cannot read trajectory '{path}': {' '.join(str(exc).split())}"
+        ) from None
+    _consistent(header, arrays, path)
+    return _trajectory(header, arrays)
+
+
+# ------------------------------------------------------------------------------ .csv
+def _read_csv(path: Path) -> Trajectory:
+    try:
+        with open(path, encoding="utf-8", newline="") as fh:
+            first = fh.readline(MAX_HEADER_CHARS + 2)
+            if not first.startswith("#"):
+                raise TrajectoryFileError(f"'{path}' is not a humanoid-ik trajectory file")
+            if not first.endswith("\n"):
+                raise TrajectoryFileError(
+                    f"trajectory '{path}': the header line is longer than {MAX_HEADER_CHARS} "
+                    "characters (or the file has nothing after it)"
+                )
+            header = _header(first[1:], path)
+            lines = _lines(fh, path)
+            names = next(csv.reader(lines), None)
+            if names is None:
+                raise TrajectoryFileError(f"trajectory '{path}' has no line of column names")
+            plan = _match_columns(header, names, path)
+            arrays = _csv_rows(header, plan, csv.reader(lines), path, len(names))
+    except UnicodeDecodeError:
+        raise TrajectoryFileError(
+            f"'{path}' is not a humanoid-ik trajectory file (not UTF-8)"
+        ) from None
+    except csv.Error as exc:
+        raise TrajectoryFileError(f"trajectory '{path}': {exc}") from None
+    _consistent(header, arrays, path)
+    return _trajectory(header, arrays)
+
+
+def _lines(fh: Any, path: Path) -> Any:
+    """The file's lines, none longer than :data:`MAX_LINE` characters."""
+    number = 1
+    while True:
+        line = fh.readline(MAX_LINE + 1)
+        number += 1
+        if not line:
+            return
+        if len(line) > MAX_LINE:
+            raise TrajectoryFileError(
+                f"trajectory '{path}': line {number} is longer than {MAX_LINE} characters"
+            )
+        yield line
+
+
+def _is_sample(a: Array) -> bool:
+    """A sample field's array (``effector{k}_iterations`` ...)."""
+    return any(a.name.endswith("_" + name) for name in SAMPLES)
+
+
+def _csv_rows(
+    header: Header, plan: list[Array], rows: Any, path: Path, width: int
+) -> dict[str, np.ndarray]:
+    """The arrays of ``plan`` from the CSV's rows: exactly ``header.frames`` rows of
+    ``width`` cells, ``frame`` counting from 0, numbers where numbers belong, ``0``/``1``
+    flags; then each array checked by its rule."""
+    f = header.frames
+    store: dict[str, Any] = {
+        a.name: np.empty(a.shape, dtype=np.float64)
+        if a.kind not in ("status", "bool")
+        else (np.empty(f, dtype=bool) if a.kind == "bool" else [""] * f)
+        for a in plan
+    }
+    i = -1
+    for i, row in enumerate(rows):
+        line = i + 3
+        if i >= f:
+            raise TrajectoryFileError(
+                f"trajectory '{path}' has more than {f} rows; its header says frames = {f}"
+            )
+        if len(row) != width:
+            raise TrajectoryFileError(
+                f"trajectory '{path}': line {line} has {len(row)} cells; expected {width} "
+                "(one per column)"
+            )
+        if row[0] != str(i):
+            raise TrajectoryFileError(
+                f"trajectory '{path}': line {line}, column 'frame': expected {i}, got {row[0]!r}"
+            )
+        j = 1
+        for a in plan:
+            cells = row[j : j + len(a.columns)]
+            try:
+                if a.kind == "status":
+                    store[a.name][i] = cells[0]
+                elif a.kind == "bool":
+                    if cells[0] not in ("0", "1"):
+                        raise ValueError
+                    store[a.name][i] = cells[0] == "1"
+                else:
+                    store[a.name][i] = (
+                        [float(c) for c in cells] if len(a.shape) > 1 else float(cells[0])
+                    )
+            except ValueError:
+                bad = next(c for c in cells if not _number(c)) if a.kind != "bool" else cells[0]
+                col = a.columns[cells.index(bad)]
+                rule = "0 or 1" if a.kind == "bool" else "a number"
+                raise TrajectoryFileError(
+                    f"trajectory '{path}': line {line}, column {col!r}: expected {rule}, "
+                    f"got {bad!r}"
+                ) from None
+            j += len(a.columns)
+    if i + 1 != f:
+        raise TrajectoryFileError(
+            f"trajectory '{path}' has {i + 1} row(s); its header says frames = {f}"
+        )
+    return {a.name: a.check(np.asarray(store[a.name]), str(path)) for a in plan}
+
+
+def _number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+MAX_LINE = 4_000_000
+"""Longest CSV line after the header [characters]."""
+
+
+def _match_columns(header: Header, names: list[str], path: Path) -> list[Array]:
+    """The arrays the CSV's column names hold, in order: every array of the header's
+    layout with CSV columns (the four sample columns of each effector all or none, as
+    files of an earlier release lack them), named as this release writes them or, for a
+    file written before effectors sharing a name were told apart, ``<name>.``.
+
+    Raises:
+        TrajectoryFileError: a column is missing, unknown, twice or out of place.
+    """
+    tried = {}
+    for legacy in (False, True):
+        arrays = [a for a in layout(header, legacy) if a.columns]
+        for samples in (True, False):
+            kept = [a for a in arrays if samples or not _is_sample(a)]
+            want = ["frame", *[c for a in kept for c in a.columns]]
+            if names == want:
+                return kept
+            tried[legacy, samples] = want
+    samples = any(n.endswith("." + SAMPLES["iterations"]) for n in names)
+    want = tried[False, samples]
+    seen: dict[str, int] = {}
+    for i, n in enumerate(names):
+        if n in seen and names.count(n) > want.count(n):
+            raise TrajectoryFileError(
+                f"trajectory '{path}': column {n!r} appears twice (columns {seen[n] + 1} and "
+                f"{i + 1})"
+            )
+        seen.setdefault(n, i)
+    missing = [c for c in want if c not in names]
+    if missing:
+        raise TrajectoryFileError(f"trajectory '{path}' lacks column {missing[0]!r}")
+    unknown = [c for c in names if c not in want]
+    if unknown:
+        raise TrajectoryFileError(
+            f"trajectory '{path}' has column {unknown[0]!r}, which its header does not imply"
+        )
+    i = next(i for i, (a, b) in enumerate(zip(names, want, strict=False)) if a != b)
+    raise TrajectoryFileError(
+        f"trajectory '{path}': column {i + 1} is {names[i]!r}; expected {want[i]!r}"
+    )
 
 
 def open_trajectory(
@@ -315,13 +507,18 @@ def open_trajectory(
     traj = load_trajectory(path)
     mfile = traj.model_file if model_file is None else str(model_file)
     if not Path(mfile).is_file():
+        if model_file is not None:
+            raise TrajectoryFileError(f"model file '{mfile}' does not exist")
         raise TrajectoryFileError(
             f"model file '{mfile}' of trajectory '{path}' does not exist; pass the model it "
             "was recorded on with --model"
         )
     model = load_model(mfile, packages=packages)
     digest = model_digest(mfile, packages=packages)
-    check_trajectory_model(traj, model, digest)
+    # the messages name the model checked: the one given, else the trajectory's
+    check_trajectory_model(
+        traj if model_file is None else replace(traj, model_file=mfile), model, digest
+    )
     if staged:
         aspect = traj.render.width / traj.render.height
         model = trajectory_stage(mfile, traj, aspect, model, packages=packages)

@@ -33,7 +33,10 @@ import mujoco
 
 from humanoid_ik.errors import RenderError
 
-__all__ = ["INSTALL_HINT", "Backend", "open_renderer", "select_backend"]
+__all__ = ["GL_BACKENDS", "INSTALL_HINT", "Backend", "open_renderer", "select_backend"]
+
+GL_BACKENDS = ("egl", "osmesa", "glfw", "glx")
+"""The values of ``MUJOCO_GL`` that render (``disable``, ``off``... turn rendering off)."""
 
 INSTALL_HINT = (
     "install Mesa's EGL (Debian/Ubuntu: apt-get install libegl1 libegl-mesa0 "
@@ -90,7 +93,10 @@ def _context_class(name: str) -> Any:
     elif name in ("glfw", "glx", "enable", "enabled", "on", "true", "1", ""):
         from mujoco.glfw import GLContext
     else:
-        raise RenderError(f"MUJOCO_GL={name!r} is not a backend; expected one of egl, osmesa, glfw")
+        raise RenderError(
+            f"MUJOCO_GL={os.environ.get('MUJOCO_GL', name)!r} is not an OpenGL backend; "
+            f"expected one of {', '.join(GL_BACKENDS)} (or unset it: EGL, else OSMesa)"
+        )
     return GLContext
 
 

@@ -24,11 +24,14 @@ import mujoco
 from humanoid_ik.config.scene import Scene
 from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.models import needs_stage
+from humanoid_ik.core.names import check_name
+from humanoid_ik.errors import MotionError, RenderError, TrajectoryFileError
 from humanoid_ik.outputs.atomic import staged_outputs
 from humanoid_ik.outputs.record import (
     check_output_dir,
     progress_reporter,
     relocated,
+    scene_output_dir,
     write_metrics,
 )
 from humanoid_ik.outputs.render.backend import Backend, select_backend
@@ -153,7 +156,8 @@ def _film(
     trail = round(rs.trail * fps)
     with FrameRenderer(model, rs.width, rs.height, rs.camera, trail, marker) as fr:
         backend = select_backend()
-        writer = VideoWriter(folder / f"{name}.mp4", rs.width, rs.height, fps) if video else None
+        mp4 = _named(folder, name, ".mp4")
+        writer = VideoWriter(mp4, rs.width, rs.height, fps) if video else None
         images = [sink for sink in (writer, stills, gif) if sink is not None]
         try:
             run(Film(fr, quats, images))
@@ -163,8 +167,18 @@ def _film(
             raise
         video_path = None if writer is None else writer.close()
     snapshots, sheet_path = stills.write(folder)
-    gif_path = None if gif is None else gif.write(folder / f"{name}.gif")
+    gif_path = None if gif is None else gif.write(_named(folder, name, ".gif"))
     return _Filmed(video_path, snapshots, sheet_path, gif_path, tuple(notes)), backend
+
+
+def _named(folder: Path, name: str, suffix: str) -> Path:
+    """``folder/<name><suffix>``, a file named after a scene: ``name`` is a
+    :data:`~humanoid_ik.core.names.NAME` (no separator, no ``..``), so the file is in
+    ``folder`` (the callers check the name first, with their own error)."""
+    path = folder / (check_name("scene", name) + suffix)
+    if path.parent != folder:  # cannot happen for a NAME; the rule is what keeps it so
+        raise MotionError("scene", "a name that stays inside the output folder", name)
+    return path
 
 
 def render_scene(
@@ -201,12 +215,13 @@ def render_scene(
         progress: called with ``(frames done, frames total)`` after each frame.
 
     Raises:
-        SceneError: the scene does not fit its model.
+        SceneError: the scene's name is not a :data:`~humanoid_ik.core.names.NAME` (it
+            names the folder and the files), or the scene does not fit its model.
         RenderError: the folder cannot be written, the camera does not exist, or no
             OpenGL backend works.
     """
     t_start = time.perf_counter()
-    folder = check_output_dir(Path("renders") / scene.name if out_dir is None else out_dir)
+    folder = scene_output_dir(scene, out_dir)
     runner = SceneRunner(scene)
     n, rs = runner.n_frames, scene.render
     reaching = [c for c, e in zip(runner.chains, scene.effectors, strict=True) if e.task == "reach"]
@@ -311,11 +326,24 @@ def replay_trajectory(
         progress: called with ``(frames done, frames total)`` after each frame.
 
     Raises:
-        TrajectoryFileError: the trajectory does not fit the model.
-        RenderError: the folder cannot be written, the camera does not exist, or no
-            OpenGL backend works.
+        TrajectoryFileError: the trajectory's scene name is not a
+            :data:`~humanoid_ik.core.names.NAME` (it names the video), or the
+            trajectory does not fit the model.
+        RenderError: the folder cannot be written, the camera does not exist, the frame
+            is larger than the model's off-screen buffer, or no OpenGL backend works.
     """
+    try:
+        check_name("scene", trajectory.scene)
+    except MotionError as exc:
+        raise TrajectoryFileError(f"trajectory {exc}") from None
     player = TrajectoryPlayer(trajectory, model, digest)
+    rs = trajectory.render if render is None else render
+    buffer = (int(model.vis.global_.offwidth), int(model.vis.global_.offheight))
+    if rs.width > buffer[0] or rs.height > buffer[1]:
+        raise RenderError(
+            f"frame {rs.width}x{rs.height} is larger than the model's off-screen buffer "
+            f"{buffer[0]}x{buffer[1]} (visual/global offwidth, offheight)"
+        )
     folder = check_output_dir(out_dir)
     n = player.n_frames
     done: list[tuple[list[float], bool]] = []
@@ -323,7 +351,6 @@ def replay_trajectory(
     def run(film: FrameSink) -> None:
         done.append(player.run([film], on_frame=progress_reporter(progress, n)))
 
-    rs = trajectory.render if render is None else render
     with staged_outputs(folder) as stage:
         filmed, backend = _film(
             model,
