@@ -5,29 +5,44 @@ in-range joint vectors (``experiments.bench.make_targets``, as ``humanoid-ik ben
 every solve from the chain's ``home`` pose, solved by:
 
 - ours, by registry name: ``closed_form``, ``two_link``, ``dls``, ``lm``, ``auto``,
-  ``mink`` (those registered in ``SOLVERS`` and applicable to the chain and task);
+  ``mink`` (those registered in ``SOLVERS`` and applicable to the chain and task), each
+  solver object made and prepared once; and ``solve_auto``, the convenience call
+  ``solve(chain, target, "auto", q0=start)`` on every target;
 - TRAC-IK (``pytracik``) on a URDF of the chain (``outputs/urdf.py``), with its
   default 5 ms timeout and with 50 ms (pose targets only: pytracik has no
   position-only call);
 - a plain ``mink.solve_ik`` loop, mink's public API alone, with the tasks and limits of
   our ``mink`` solver and no restart (``benchmarks/mink_step.py``);
 - IKPy on the same URDF;
+- roboticstoolbox-python's compiled ``ik_LM`` and ``ik_NR`` (joint limits on; its
+  default ``tol`` and a tight one) and EAIK (analytic; with and without the 2 pi shift
+  of its answers into the ranges), on the chain's kinematics as MuJoCo has them
+  (``benchmarks/peer_libs.py``);
 - dm_control's ``qpos_from_site_pose``, run in its own venv by
-  ``benchmarks/dm_control_peer.py`` (targets out, answers back, as JSON).
+  ``benchmarks/dm_control_peer.py`` (targets out, answers back, as JSON), on the MJCF
+  arms.
+
+Arms: the bundled and dm_control MJCF arms, and seven arms of ``example-robot-data``
+from their original URDFs (:data:`REAL_ARMS`). Each peer's FK is compared with
+MuJoCo's at a few random joint vectors before anything is timed (to 1e-9; a peer off
+by more is left out with its gap). The libraries run **interleaved**: in blocks of
+:data:`BLOCK` targets, each library in turn, so a noisy neighbour on the machine slows
+every library alike (:func:`interleaved`); ``--seeds`` repeats the whole run on other
+targets, in the same process.
 
 Every answer is checked by an independent MuJoCo FK (a chain of its own on its own
 ``MjData``): on target within 1 mm / 0.01 rad (``core/measures.py``) and inside the
 joint ranges (to 1e-6 rad, see :data:`RANGE_TOL`). Columns: success, success inside
 the ranges, CPU median and p95 per solve (``time.process_time``, which adds the time of
 every thread: TRAC-IK runs two), wall median, mean iterations where the library
-reports them, and each row's CPU median over our best (the fastest of our solvers within
-1 point of our best in-range success).
+reports them, and our CPU median over the row's (``auto``, ``lm``, ``solve()``).
 
 The floor: per arm, one ``mj_kinematics`` + ``mj_comPos`` + site (or body) Jacobian,
 and each solver's CPU per iteration as a multiple of it.
 
-    .venv/bin/python benchmarks/peers.py [--n 200]
-        [--models humanoid,robot,jaco,cmu_arm,dm_humanoid] [--quick]
+    .venv/bin/python benchmarks/peers.py [--n 200] [--seeds 0,1]
+        [--models humanoid,robot,jaco,cmu_arm,dm_humanoid,panda,ur5,...] [--quick]
+        [--ours lm,auto,solve_auto] [--peers trac_ik_50ms,rtb_lm_tight,eaik,...]
         [--json PATH] [--markdown PATH] [--dm-python benchmarks/.venv-dm/bin/python]
 
 Arms from dm_control (``jaco``, ``cmu_arm``, ``dm_humanoid``) are read from the dm_control
@@ -47,7 +62,7 @@ import sys
 import tempfile
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -57,28 +72,67 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.limbs import limb_chain
 from humanoid_ik.core.measures import on_target, orientation_error
-from humanoid_ik.core.models import bundled_dir, bundled_model_path
-from humanoid_ik.core.rotations import quat_to_mat
+from humanoid_ik.core.models import bundled_dir, bundled_model_path, load_model
+from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.types import Target
-from humanoid_ik.experiments.bench import make_targets, not_reaching
+from humanoid_ik.experiments.bench import make_targets
 from humanoid_ik.outputs.atomic import write_json, write_text
-from humanoid_ik.outputs.urdf import BASE_LINK, chain_urdf
-from humanoid_ik.solvers import SOLVERS, make_solver
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mink_step import PlainMinkLoop  # noqa: E402  (the one plain mink loop)
-from solvers import ROBOT_ARM  # noqa: E402  (benchmarks/solvers.py: the arm's joints)
+from humanoid_ik.outputs.urdf import chain_urdf
+from humanoid_ik.solvers import SOLVERS
 
 HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE), str(HERE.parent)]
+from peer_libs import FK_TOL, PeerRun, setup_ours, setup_peer  # noqa: E402  (the libraries)
+from solvers import ROBOT_ARM  # noqa: E402  (benchmarks/solvers.py: the arm's joints)
+
+from tests.robots import robot_file  # noqa: E402  (example-robot-data's original URDFs)
+
 DM_PYTHON = HERE / ".venv-dm" / "bin" / "python"
-OURS = ("closed_form", "two_link", "dls", "lm", "auto", "mink")
-"""Our solvers in the table, those of them that are registered."""
-PEERS = ("trac_ik_5ms", "trac_ik_50ms", "mink_plain", "ikpy", "dm_control")
+OURS = ("closed_form", "two_link", "dls", "lm", "auto", "mink", "solve_auto")
+"""Our solvers in the table, those of them that are registered (``solve_auto``: the
+``solve()`` call with ``"auto"``)."""
+PEERS = (
+    "trac_ik_5ms",
+    "trac_ik_50ms",
+    "mink_plain",
+    "ikpy",
+    "rtb_lm",
+    "rtb_lm_tight",
+    "rtb_nr",
+    "rtb_nr_tight",
+    "eaik",
+    "eaik_raw",
+    "dm_control",
+)
+RATIO_TO = ("auto", "lm", "solve_auto")
+"""Ours whose CPU median over each row's the tables show."""
+LABEL = {"solve_auto": "solve()"}
 TASKS = ("position", "pose")
 RANGE_TOL = 1e-6
 """An answer is inside the joint ranges to this [rad]: pytracik keeps its bounds in
 float32, so TRAC-IK's answers at a range end overshoot it by up to about 1e-7 rad."""
+
+
+REAL_ARMS: dict[str, tuple[str, str, str]] = {
+    "panda": ("panda", "arm", "Franka Panda (7 hinges)"),
+    "ur5": ("ur5", "arm", "UR5 (6 hinges)"),
+    "kinova": ("kinova", "arm", "Kinova j2s6s200 (6 hinges, 3 unlimited)"),
+    "g1_left_arm": ("g1", "left_arm", "Unitree G1, left arm (7 hinges)"),
+    "talos_left_arm": ("talos", "left_arm", "Talos, left arm (7 hinges)"),
+    "baxter_left_arm": ("baxter", "left_arm", "Baxter, left arm (7 hinges)"),
+    "so100": ("so100", "arm", "SO-100 (5 hinges)"),
+}
+"""Key: (``tests/robots.py`` name, limb, label)."""
+
+
+def real_chain(robot: str, limb: str) -> Chain:
+    """The chain of ``robot``'s ``limb`` (``core.limbs``), on a model of its own."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a home pose outside the ranges, said by load_model
+        model = load_model(str(robot_file(robot)))
+    return limb_chain(Robot(model), limb)
 
 
 @dataclass(frozen=True)
@@ -87,18 +141,29 @@ class Arm:
 
     label: str
     xml: str
-    """``bundled:<path under models/>`` or ``dm_control:<path in its package>``."""
+    """``bundled:<path under models/>``, ``dm_control:<path in its package>`` or
+    ``robot:<tests/robots.py name>`` (example-robot-data's URDF, with ``limb``)."""
     site: str | None = None
     body: str | None = None
     joints: tuple[str, ...] | None = None
+    limb: str | None = None
 
     def path(self, dm_dir: Path | None) -> Path | None:
         kind, rel = self.xml.split(":", 1)
         if kind == "bundled":
             return bundled_model_path() if rel == "humanoid" else bundled_dir("models") / rel
+        if kind == "robot":
+            return Path(rel)
         return None if dm_dir is None else dm_dir / rel
 
+    @property
+    def mjcf(self) -> bool:
+        return not self.xml.startswith("robot:")
+
     def chain(self, dm_dir: Path | None) -> Chain:
+        if not self.mjcf:
+            assert self.limb is not None
+            return real_chain(self.xml.split(":", 1)[1], self.limb)
         path = self.path(dm_dir)
         assert path is not None
         return Chain(path, self.site, self.joints, body=self.body)
@@ -140,6 +205,10 @@ ARMS: dict[str, Arm] = {
     "dm_humanoid": Arm(
         "dm_control humanoid right arm (3 hinges)", "dm_control:suite/humanoid.xml", "right_hand"
     ),
+    **{
+        key: Arm(f"{label}, example-robot-data", f"robot:{robot}", limb=limb)
+        for key, (robot, limb, label) in REAL_ARMS.items()
+    },
 }
 
 
@@ -159,12 +228,13 @@ class Answers:
 
 @dataclass
 class Row:
-    """One library's figures on one arm and task (or why it was left out)."""
+    """One library's figures on one arm, task and seed (or why it was left out)."""
 
     arm: str
     task: str
     who: str
     ours: bool
+    seed: int = 0
     skipped: str | None = None
     success: float | None = None
     inside: float | None = None
@@ -179,24 +249,42 @@ class Row:
 
 
 # ------------------------------------------------------------------ timing and checking
-def timed(
-    solve_one: Callable[[Target], tuple[NDArray[np.float64], float | None]],
-    targets: Sequence[Target],
-    n_joints: int,
-) -> Answers:
-    """Call ``solve_one`` on every target (after one untimed call, so no lazy import or
-    first-call set-up is timed): CPU and wall time of each call."""
-    solve_one(targets[0])
-    N = len(targets)
-    q, cpu, wall, its = np.empty((N, n_joints)), np.empty(N), np.empty(N), np.full(N, np.nan)
-    for i, tgt in enumerate(targets):
-        w0, c0 = time.perf_counter(), time.process_time()
-        qi, it = solve_one(tgt)
-        cpu[i], wall[i] = time.process_time() - c0, time.perf_counter() - w0
-        q[i] = qi
-        if it is not None:
-            its[i] = it
-    return Answers(q, cpu, wall, None if np.isnan(its).all() else its)
+BLOCK = 10
+"""Targets a library solves in a row before the next library's turn."""
+
+
+def interleaved(
+    libs: dict[str, PeerRun], targets: Sequence[Target], n_joints: int, block: int = BLOCK
+) -> dict[str, Answers]:
+    """Every library on every target, interleaved: block by block of ``block`` targets,
+    each library in turn (in an order shuffled each block, seeded), each turn after one
+    untimed call on the first target (so no lazy import or first-call set-up is timed,
+    and the library's data is in the caches as in a loop of solves, not evicted by the
+    library before it). CPU and wall time of each call."""
+    N, names = len(targets), list(libs)
+    out = {
+        who: Answers(np.empty((N, n_joints)), np.empty(N), np.empty(N), np.full(N, np.nan))
+        for who in names
+    }
+    clock, wall, rng = time.process_time, time.perf_counter, np.random.default_rng(0)
+    for b0 in range(0, N, block):
+        for who in rng.permutation(names):
+            lib, a = libs[who], out[who]
+            lib.solve(targets[0])
+            if lib.call_cpu is not None:
+                del lib.call_cpu[-1]
+            for i in range(b0, min(b0 + block, N)):
+                w0, c0 = wall(), clock()
+                qi, it = lib.solve(targets[i])
+                c1, w1 = clock(), wall()
+                a.cpu[i], a.wall[i], a.q[i] = c1 - c0, w1 - w0, qi
+                if it is not None:
+                    assert a.iterations is not None
+                    a.iterations[i] = it
+    for a in out.values():
+        if a.iterations is not None and np.isnan(a.iterations).all():
+            a.iterations = None
+    return out
 
 
 def check(
@@ -237,91 +325,6 @@ def floor_us(chain: Chain, repeats: int = 5000) -> float:
             jac(m, d, jacp, jacr, eid)
         best = min(best, (time.process_time() - c0) / repeats * 1e6)
     return best
-
-
-# ------------------------------------------------------------------ the libraries
-def run_ours(name: str, chain: Chain, targets: Sequence[Target]) -> Answers | str:
-    """One of our solvers by registry name, or why it does not apply."""
-    solver = make_solver(name)
-    reason = not_reaching(solver, chain, targets[0].is_pose)
-    if reason is not None:
-        return reason
-    solver.prepare(chain)
-
-    def one(tgt: Target) -> tuple[NDArray[np.float64], float | None]:
-        chain.reset()
-        res = solver.solve(chain, tgt)
-        return res.q, res.iterations
-
-    out = timed(one, targets, chain.n)
-    chain.reset()
-    return out
-
-
-def run_trac_ik(
-    chain: Chain, urdf: str, targets: Sequence[Target], timeout: float
-) -> Answers | str:
-    """TRAC-IK (pytracik, solve type Speed, epsilon 1e-5) with ``timeout`` [s]."""
-    if not targets[0].is_pose:
-        return "pose targets only (pytracik has no position-only call)"
-    try:
-        import pytracik
-    except ImportError:
-        return "pytracik not installed (pip install -e '.[bench-peers]')"
-    ik = pytracik.TRAC_IK(BASE_LINK, chain.ee_name, urdf, timeout, 1e-5, pytracik.SolveType.Speed)
-    start = chain.q_home.copy()
-
-    def one(tgt: Target) -> tuple[NDArray[np.float64], float | None]:
-        assert tgt.quat is not None
-        w, x, y, z = tgt.quat
-        p = tgt.position
-        r = pytracik.ik(ik, start, p[0], p[1], p[2], x, y, z, w)
-        return (np.asarray(r[1:], dtype=np.float64) if r[0] >= 0 else start), None
-
-    return timed(one, targets, chain.n)
-
-
-def run_mink_plain(chain: Chain, targets: Sequence[Target]) -> Answers | str:
-    """The plain mink loop of ``benchmarks/mink_step.py`` (our mink solver's defaults)."""
-    from humanoid_ik.solvers.mink import MinkOptions
-
-    chain.reset()
-    loop = PlainMinkLoop(chain, MinkOptions(), targets[0].is_pose)
-    return timed(lambda t: loop.solve(t), targets, chain.n)
-
-
-def run_ikpy(chain: Chain, urdf: str, targets: Sequence[Target]) -> Answers | str:
-    """IKPy (its default optimiser) on the URDF, from the same start."""
-    try:
-        from ikpy.chain import Chain as IKPyChain
-    except ImportError:
-        return "ikpy not installed (pip install -e '.[bench-peers]')"
-    with tempfile.TemporaryDirectory() as tmp:
-        path = write_text(Path(tmp) / "arm.urdf", urdf)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ik = IKPyChain.from_urdf_file(
-                str(path),
-                base_elements=[BASE_LINK],
-                active_links_mask=[False] + [True] * chain.n + [False],
-            )
-    init = np.concatenate([[0.0], chain.q_home, [0.0]])
-
-    def one(tgt: Target) -> tuple[NDArray[np.float64], float | None]:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            if tgt.quat is None:
-                q = ik.inverse_kinematics(tgt.position, initial_position=init)
-            else:
-                q = ik.inverse_kinematics(
-                    tgt.position,
-                    quat_to_mat(tgt.quat),
-                    orientation_mode="all",
-                    initial_position=init,
-                )
-        return np.asarray(q[1:-1], dtype=np.float64), None
-
-    return timed(one, targets, chain.n)
 
 
 def dm_package_dir(python: Path) -> Path | None:
@@ -410,44 +413,54 @@ def bench_arm(
     peers: Sequence[str],
     ours: Sequence[str],
 ) -> tuple[list[Row], list[Target]]:
-    """Every in-process library on one arm and task (dm_control is added later)."""
+    """Every in-process library on one arm and task, interleaved (dm_control is added
+    later); a peer whose FK is off MuJoCo's by more than :data:`FK_TOL` is left out."""
     chain.reset()
-    targets = make_targets(chain, n, seed, task == "pose")
+    pose = task == "pose"
+    targets = make_targets(chain, n, seed, pose)
     urdf = chain_urdf(chain)
     floor = floor_us(chain)
-    rows: list[Row] = []
-    runs: list[tuple[str, bool, Callable[[], Answers | str]]] = []
-    for name in ours:
-        runs.append((name, True, lambda name=name: run_ours(name, chain, targets)))
-    for peer in peers:
-        if peer == "trac_ik_5ms":
-            runs.append((peer, False, lambda: run_trac_ik(chain, urdf, targets, 0.005)))
-        elif peer == "trac_ik_50ms":
-            runs.append((peer, False, lambda: run_trac_ik(chain, urdf, targets, 0.05)))
-        elif peer == "mink_plain":
-            runs.append((peer, False, lambda: run_mink_plain(chain, targets)))
-        elif peer == "ikpy":
-            runs.append((peer, False, lambda: run_ikpy(chain, urdf, targets)))
-    for who, is_ours, run in runs:
-        print(f"  {key} {task}: {who}", file=sys.stderr, flush=True)
-        ans = run()
+    made: dict[str, PeerRun | str] = {}
+    for who in [*ours, *(p for p in peers if p != "dm_control")]:
+        print(f"  {key} {task} seed {seed}: {who}", file=sys.stderr, flush=True)
+        lib = setup_ours(who, chain, pose) if who in ours else setup_peer(who, chain, urdf, pose)
+        if not isinstance(lib, str) and lib.fk_gap is not None and lib.fk_gap > FK_TOL:
+            lib = f"its FK is {lib.fk_gap:.1e} off MuJoCo's"
+        made[who] = lib
         chain.reset()
-        row = Row(key, task, who, is_ours, extra={"floor_us": floor})
-        if isinstance(ans, str):
-            row.skipped = ans
+    libs = {w: lib for w, lib in made.items() if not isinstance(lib, str)}
+    answers = interleaved(libs, targets, chain.n) if libs else {}
+    chain.reset()
+    rows: list[Row] = []
+    for who, lib in made.items():
+        row = Row(key, task, who, who in ours, seed, extra={"floor_us": floor})
+        if isinstance(lib, str):
+            row.skipped = lib
         else:
+            ans = answers[who]
             ok, inside = check(checker, targets, ans.q)
             summarise(row, ans, ok, inside, floor)
+            if lib.fk_gap is not None:
+                row.extra["fk_gap"] = lib.fk_gap
+            if lib.call_cpu:
+                row.extra["call_cpu_median_ms"] = float(np.median(lib.call_cpu) * 1e3)
+            row.extra.update(lib.notes)
         rows.append(row)
     return rows, targets
 
 
 def add_dm_rows(
-    rows: list[Row], key: str, task: str, targets: Sequence[Target], checker: Chain, result: Any
+    rows: list[Row],
+    key: str,
+    task: str,
+    seed: int,
+    targets: Sequence[Target],
+    checker: Chain,
+    result: Any,
 ) -> None:
     """The dm_control answers of one arm and task, checked here."""
     floor = rows[0].extra["floor_us"]
-    row = Row(key, task, "dm_control", False, extra={"floor_us": floor})
+    row = Row(key, task, "dm_control", False, seed, extra={"floor_us": floor})
     if result is None or "answers" not in result:
         row.skipped = (
             "dm_control venv missing (see docs/benchmarks.md)"
@@ -468,9 +481,9 @@ def add_dm_rows(
 
 
 def finish(rows: list[Row]) -> None:
-    """Each row's CPU median over our best on the same arm and task."""
-    for arm, task in {(r.arm, r.task) for r in rows}:
-        group = [r for r in rows if r.arm == arm and r.task == task]
+    """Each row's CPU median over our best on the same arm, task and seed."""
+    for arm, task, seed in {(r.arm, r.task, r.seed) for r in rows}:
+        group = [r for r in rows if r.arm == arm and r.task == task and r.seed == seed]
         best = our_best(group)
         for r in group:
             if best is not None and r.cpu_median_ms is not None and best.cpu_median_ms:
@@ -484,41 +497,153 @@ def _f(x: float | None, spec: str, scale: float = 1.0) -> str:
     return "-" if x is None else format(x * scale, spec)
 
 
-def markdown(rows: Sequence[Row], arms: dict[str, Arm], head: str) -> str:
-    lines = [head, ""]
-    lines.append(
-        "| arm | task | solver | success | in ranges | CPU median [ms] | CPU p95 [ms] | "
-        "wall median [ms] | mean iterations | CPU / our best |"
-    )
-    lines.append("|---|---|---|---|---|---|---|---|---|---|")
-    for r in rows:
-        name = f"**`{r.who}`**" if r.extra.get("our_best") else f"`{r.who}`"
-        if r.skipped:
-            continue
-        lines.append(
-            f"| {r.arm} | {r.task} | {name} | {_f(r.success, '.1f', 100)} % | "
-            f"{_f(r.inside, '.1f', 100)} % | {_f(r.cpu_median_ms, '.3f')} | "
-            f"{_f(r.cpu_p95_ms, '.3f')} | {_f(r.wall_median_ms, '.3f')} | "
-            f"{_f(r.mean_iterations, '.1f')} | {_f(r.over_our_best, '.2f')} |"
+def _per_seed(vals: Sequence[float | None], spec: str, scale: float = 1.0) -> str:
+    """One cell: the value of each seed, ``a / b``."""
+    return " / ".join(_f(v, spec, scale) for v in vals)
+
+
+def _get(rows: Sequence[Row | None], attr: str) -> list[float | None]:
+    """``attr`` of each row (``None`` for a missing row)."""
+    return [None if r is None else getattr(r, attr) for r in rows]
+
+
+def _ratio(ours: Row | None, peer: Row | None) -> float | None:
+    if ours is None or peer is None or not ours.cpu_median_ms or not peer.cpu_median_ms:
+        return None
+    return ours.cpu_median_ms / peer.cpu_median_ms
+
+
+def _name(who: str) -> str:
+    return f"`{LABEL.get(who, who)}`"
+
+
+def arm_table(rows: Sequence[Row], arm: str, task: str, seeds: Sequence[int]) -> list[str]:
+    """The table of one arm and task: a row per library, each cell one value per seed."""
+    group = [r for r in rows if r.arm == arm and r.task == task]
+    whos = list(dict.fromkeys(r.who for r in group if not r.skipped))
+    at = {(r.who, r.seed): r for r in group}
+    ref = [w for w in RATIO_TO if any((w, s) in at and not at[w, s].skipped for s in seeds)]
+    lines = [
+        "| library | success | in ranges | CPU median [ms] | CPU p95 [ms] | wall median [ms] "
+        "| mean iterations | " + " | ".join(f"{_name(w)} ÷ it" for w in ref) + " |",
+        "|---|---|---|---|---|---|---|" + "---|" * len(ref),
+    ]
+    for who in whos:
+        rs = [at.get((who, s)) for s in seeds]
+        bold = any(r is not None and r.extra.get("our_best") for r in rs)
+        name = f"**{_name(who)}**" if bold else _name(who)
+        cells = [
+            _per_seed(_get(rs, "success"), ".1f", 100) + " %",
+            _per_seed(_get(rs, "inside"), ".1f", 100) + " %",
+            _per_seed(_get(rs, "cpu_median_ms"), ".3f"),
+            _per_seed(_get(rs, "cpu_p95_ms"), ".3f"),
+            _per_seed(_get(rs, "wall_median_ms"), ".3f"),
+            _per_seed(_get(rs, "mean_iterations"), ".1f"),
+        ]
+        cells += [
+            _per_seed([_ratio(at.get((w, s)), at.get((who, s))) for s in seeds], ".2f") for w in ref
+        ]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def call_notes(rows: Sequence[Row], arm: str, task: str, seeds: Sequence[int]) -> list[str]:
+    """A line for each library whose solve adds our work around its calls (EAIK): the
+    CPU median of its calls alone, and the joint it locks."""
+    out = []
+    group = [r for r in rows if r.arm == arm and r.task == task and not r.skipped]
+    for who in dict.fromkeys(r.who for r in group if "call_cpu_median_ms" in r.extra):
+        rs = [next((r for r in group if r.who == who and r.seed == s), None) for s in seeds]
+        call = [None if r is None else r.extra.get("call_cpu_median_ms") for r in rs]
+        line = f"{_name(who)}: its own calls {_per_seed(call, '.4f')} ms CPU median per solve"
+        first = next(r for r in rs if r is not None)
+        if "locked_joint" in first.extra:
+            line += (
+                f", joint {int(first.extra['locked_joint']) + 1} of {arm} locked "
+                f"(up to {int(first.extra['lock_values'])} values)"
+            )
+        out.append(line + "; the rest of its CPU is the pick of one answer inside the ranges.")
+    return out + [""] if out else []
+
+
+SUMMARY_PEERS = ("trac_ik_50ms", "rtb_lm_tight", "rtb_nr_tight", "eaik")
+
+
+def summary_table(rows: Sequence[Row], arms: dict[str, Arm], seeds: Sequence[int]) -> list[str]:
+    """Pose targets, an arm a line: ``auto`` (success over every seed's targets, CPU
+    median and p95 per seed), its CPU median over each main peer's (per seed, with the
+    peer's in-range success over every seed), and ``solve()`` over ``auto``."""
+    pose = [r for r in rows if r.task == "pose" and not r.skipped]
+    keys = list(dict.fromkeys(r.arm for r in pose))
+    peers = [p for p in SUMMARY_PEERS if any(r.who == p for r in pose)]
+    if not keys or not any(r.who == "auto" for r in pose):
+        return []
+    lines = [
+        "| arm (pose targets) | `auto` in ranges | `auto` CPU median [ms] | `auto` CPU p95 [ms] | "
+        + " | ".join(f"`auto` ÷ `{p}` (its in ranges)" for p in peers)
+        + " | `solve()` ÷ `auto` |",
+        "|---|---|---|---|" + "---|" * (len(peers) + 1),
+    ]
+
+    def pooled(who: str, arm: str) -> str:
+        rs = [r for r in pose if r.arm == arm and r.who == who and r.inside is not None]
+        return "-" if not rs else f"{100 * float(np.mean([r.inside for r in rs])):.1f} %"
+
+    for arm in keys:
+        at = {(r.who, r.seed): r for r in pose if r.arm == arm}
+        au = [at.get(("auto", s)) for s in seeds]
+        cells = [
+            pooled("auto", arm),
+            _per_seed(_get(au, "cpu_median_ms"), ".3f"),
+            _per_seed(_get(au, "cpu_p95_ms"), ".3f"),
+        ]
+        for p in peers:
+            if not any((p, s) in at for s in seeds):
+                cells.append("does not apply")
+                continue
+            ratios = [_ratio(at.get(("auto", s)), at.get((p, s))) for s in seeds]
+            cells.append(f"{_per_seed(ratios, '.2f')} ({pooled(p, arm)})")
+        cells.append(
+            _per_seed(
+                [_ratio(at.get(("solve_auto", s)), at.get(("auto", s))) for s in seeds], ".2f"
+            )
         )
+        lines.append(f"| {arms[arm].label} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def markdown(rows: Sequence[Row], arms: dict[str, Arm], head: str) -> str:
+    """The summary (pose targets), a table per arm and task, what was left out, the
+    arms, the floor."""
+    seeds = sorted({r.seed for r in rows})
+    lines = [head, ""]
+    summary = summary_table(rows, arms, seeds)
+    if summary:
+        lines += summary + [""]
+    note = " (each cell: seed " + " / seed ".join(map(str, seeds)) + ")" if len(seeds) > 1 else ""
+    for arm, task in dict.fromkeys((r.arm, r.task) for r in rows):
+        if all(r.skipped for r in rows if r.arm == arm and r.task == task):
+            continue
+        lines += [f"`{arm}`, {task} targets{note}:", ""]
+        lines += arm_table(rows, arm, task, seeds) + [""]
+        lines += call_notes(rows, arm, task, seeds)
     left: dict[tuple[str, str], list[str]] = {}
     for r in rows:
-        if r.skipped:
+        if r.skipped and r.seed == seeds[0]:
             left.setdefault((r.who, r.skipped), []).append(f"{r.arm} {r.task}")
     if left:
         lines += [
-            "",
             "Left out: "
             + "; ".join(f"`{w}` on {', '.join(where)} ({why})" for (w, why), where in left.items())
             + ".",
+            "",
         ]
     lines += [
-        "",
         "Arms: "
         + "; ".join(f"{k}: {arms[k].label}" for k in dict.fromkeys(r.arm for r in rows))
         + ".",
     ]
-    lines += ["", floor_table(rows)]
+    lines += ["", floor_table([r for r in rows if r.seed == seeds[0]])]
     return "\n".join(lines) + "\n"
 
 
@@ -529,7 +654,7 @@ def floor_table(rows: Sequence[Row]) -> str:
         "The floor (one `mj_kinematics` + `mj_comPos` + `mj_jacSite`/`mj_jacBody`, CPU) and "
         "each solver's CPU per iteration as a multiple of it (position / pose):",
         "",
-        "| arm | floor [us] | " + " | ".join(f"`{w}`" for w in whos) + " |",
+        "| arm | floor [us] | " + " | ".join(_name(w) for w in whos) + " |",
         "|---|---|" + "---|" * len(whos),
     ]
     for arm in dict.fromkeys(r.arm for r in rows):
@@ -551,7 +676,17 @@ def versions() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
     out = {"python": platform.python_version()}
-    for pkg in ("mujoco", "mink", "daqp", "numpy", "pytracik", "ikpy"):
+    for pkg in (
+        "mujoco",
+        "mink",
+        "daqp",
+        "numpy",
+        "pytracik",
+        "ikpy",
+        "roboticstoolbox-python",
+        "eaik",
+        "example-robot-data",
+    ):
         try:
             out[pkg] = version(pkg)
         except PackageNotFoundError:
@@ -563,14 +698,15 @@ def versions() -> dict[str, str]:
 def run(
     models: Sequence[str],
     n: int,
-    seed: int = 0,
+    seeds: Sequence[int] = (0,),
     tasks: Sequence[str] = TASKS,
     peers: Sequence[str] = PEERS,
     ours: Sequence[str] | None = None,
     dm_python: Path = DM_PYTHON,
 ) -> tuple[list[Row], dict[str, Any]]:
-    """The whole comparison; returns the rows and notes (versions, arms left out)."""
-    ours = [s for s in (OURS if ours is None else ours) if s in SOLVERS]
+    """The whole comparison, once per seed; returns the rows and notes (versions, arms
+    left out)."""
+    ours = [s for s in (OURS if ours is None else ours) if s == "solve_auto" or s in SOLVERS]
     dm_dir = (
         dm_package_dir(dm_python)
         if "dm_control" in peers or any(ARMS[m].xml.startswith("dm_control:") for m in models)
@@ -578,41 +714,67 @@ def run(
     )
     notes: dict[str, Any] = {"versions": versions(), "left_out": {}}
     rows: list[Row] = []
-    jobs: list[dict[str, Any]] = []
-    pending: list[tuple[str, str, list[Target], Chain]] = []
+    chains: dict[str, tuple[Chain, Chain]] = {}
     for key in models:
         arm = ARMS[key]
         if arm.path(dm_dir) is None:
             notes["left_out"][key] = "dm_control venv missing (see docs/benchmarks.md)"
             continue
-        chain, checker = arm.chain(dm_dir), arm.chain(dm_dir)
-        for task in tasks:
-            arm_rows, targets = bench_arm(key, task, chain, checker, n, seed, peers, ours)
-            rows += arm_rows
-            if "dm_control" in peers:
-                jobs.append(dm_job(key, arm, chain, task, targets, dm_dir))
-                pending.append((key, task, targets, checker))
-    if jobs:
-        results = run_dm_control(dm_python, jobs) if dm_dir is not None else {}
-        for key, task, targets, checker in pending:
-            group = [r for r in rows if r.arm == key and r.task == task]
-            idx = rows.index(group[-1]) + 1
-            tail = rows[idx:]
-            del rows[idx:]
-            add_dm_rows(rows, key, task, targets, checker, results.get((key, task)))
+        chains[key] = (arm.chain(dm_dir), arm.chain(dm_dir))
+    for seed in seeds:
+        jobs: list[dict[str, Any]] = []
+        pending: list[tuple[str, str, list[Target], Chain, int]] = []
+        for key, (chain, checker) in chains.items():
+            for task in tasks:
+                arm_rows, targets = bench_arm(key, task, chain, checker, n, seed, peers, ours)
+                rows += arm_rows
+                if "dm_control" not in peers:
+                    continue
+                if ARMS[key].mjcf:
+                    jobs.append(dm_job(key, ARMS[key], chain, task, targets, dm_dir))
+                pending.append((key, task, targets, checker, len(rows)))
+        results = run_dm_control(dm_python, jobs) if jobs and dm_dir is not None else {}
+        for key, task, targets, checker, end in reversed(pending):
+            tail = rows[end:]
+            del rows[end:]
+            if ARMS[key].mjcf:
+                add_dm_rows(rows, key, task, seed, targets, checker, results.get((key, task)))
+            else:
+                floor = rows[-1].extra["floor_us"]
+                rows.append(
+                    Row(
+                        key,
+                        task,
+                        "dm_control",
+                        False,
+                        seed,
+                        "MJCF arms only",
+                        extra={"floor_us": floor},
+                    )
+                )
             rows += tail
     finish(rows)
     return rows, notes
 
 
+def _names(p: argparse.ArgumentParser, what: str, given: str, valid: Sequence[str]) -> list[str]:
+    """A comma-separated list of names, each checked against ``valid``."""
+    out = given.split(",")
+    for g in out:
+        if g not in valid:
+            p.error(f"{what} '{g}' unknown; {what}s: {', '.join(valid)}")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=int, default=200, help="targets per arm and task (default 200)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seeds", default="0", help="comma-separated target seeds (default 0)")
     p.add_argument(
         "--models", default=",".join(ARMS), help=f"comma-separated, of: {', '.join(ARMS)}"
     )
     p.add_argument("--tasks", default=",".join(TASKS), help="position,pose")
+    p.add_argument("--ours", default=",".join(OURS), help=f"comma-separated, of: {', '.join(OURS)}")
     p.add_argument(
         "--peers", default=",".join(PEERS), help=f"comma-separated, of: {', '.join(PEERS)}"
     )
@@ -621,25 +783,26 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--markdown", metavar="PATH", help="also write the tables as Markdown")
     p.add_argument("--dm-python", default=str(DM_PYTHON), help="python of the dm_control venv")
     args = p.parse_args(argv)
-    models, tasks, peers = args.models.split(","), args.tasks.split(","), args.peers.split(",")
-    for what, given, valid in (
-        ("model", models, ARMS),
-        ("task", tasks, TASKS),
-        ("peer", peers, PEERS),
-    ):
-        for g in given:
-            if g not in valid:
-                p.error(f"{what} '{g}' unknown; {what}s: {', '.join(valid)}")
+    models = _names(p, "model", args.models, list(ARMS))
+    tasks = _names(p, "task", args.tasks, TASKS)
+    ours = _names(p, "solver", args.ours, OURS)
+    peers = _names(p, "peer", args.peers, PEERS)
+    try:
+        seeds = [int(s) for s in args.seeds.split(",")]
+    except ValueError:
+        p.error(f"--seeds takes comma-separated integers, got '{args.seeds}'")
+    if any(s < 0 for s in seeds):
+        p.error(f"--seeds must be >= 0, got '{args.seeds}'")
     n = 20 if args.quick else args.n
     if n < 1:
         p.error(f"--n must be >= 1, got {n}")
-    rows, notes = run(models, n, args.seed, tasks, peers, dm_python=Path(args.dm_python))
+    rows, notes = run(models, n, seeds, tasks, peers, ours, dm_python=Path(args.dm_python))
     v = notes["versions"]
     head = (
-        f"n = {n} targets per arm and task, seed {args.seed}; "
-        f"{platform.processor() or platform.machine()}, Python {v['python']}, "
-        f"MuJoCo {v['mujoco']}, "
-        f"mink {v['mink']}, pytracik {v['pytracik']}, ikpy {v['ikpy']}"
+        f"n = {n} targets per arm and task, seeds {', '.join(map(str, seeds))}, libraries "
+        f"interleaved; {platform.processor() or platform.machine()}, Python {v['python']}, "
+        f"MuJoCo {v['mujoco']}, mink {v['mink']}, pytracik {v['pytracik']}, ikpy {v['ikpy']}, "
+        f"roboticstoolbox-python {v['roboticstoolbox-python']}, eaik {v['eaik']}"
     )
     if notes["left_out"]:
         head += "; left out: " + ", ".join(f"{k} ({w})" for k, w in notes["left_out"].items())
@@ -650,7 +813,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         write_json(
             args.json,
-            {"n": n, "seed": args.seed, "notes": notes, "rows": [r.__dict__ for r in rows]},
+            {"n": n, "seeds": seeds, "notes": notes, "rows": [r.__dict__ for r in rows]},
         )
     return 0
 

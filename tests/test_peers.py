@@ -1,6 +1,7 @@
 """The peer benchmark (``benchmarks/peers.py``) on a few targets: real TRAC-IK
-(``pytracik``), IKPy, a plain mink loop and our solvers by registry name, every answer
-checked by an independent MuJoCo FK; dm_control in its own venv where that venv exists.
+(``pytracik``), IKPy, a plain mink loop, roboticstoolbox-python and EAIK on real arms
+of example-robot-data, and our solvers by registry name, every answer checked by an
+independent MuJoCo FK; dm_control in its own venv where that venv exists.
 """
 
 from __future__ import annotations
@@ -14,20 +15,31 @@ import numpy as np
 import pytest
 
 from humanoid_ik import SOLVERS, Chain
+from humanoid_ik.core.rotations import mat_to_quat
+from humanoid_ik.core.types import Target
 from humanoid_ik.experiments.bench import make_targets
 
 ROOT = Path(__file__).resolve().parents[1]
 NO_VENV = ROOT / "benchmarks" / "no-such-venv" / "python"
 
 
-@pytest.fixture(scope="module")
-def peers():
-    spec = importlib.util.spec_from_file_location("peers", ROOT / "benchmarks" / "peers.py")
+def _load(name: str):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
-    sys.modules["peers"] = module
+    sys.modules[name] = module
     spec.loader.exec_module(module)
     return module
+
+
+@pytest.fixture(scope="module")
+def peers():
+    return _load("peers")
+
+
+@pytest.fixture(scope="module")
+def libs(peers):
+    return sys.modules["peer_libs"]  # imported by peers.py
 
 
 def test_check_uses_its_own_fk_and_the_ranges(peers):
@@ -36,8 +48,6 @@ def test_check_uses_its_own_fk_and_the_ranges(peers):
     chain, checker = Chain(), Chain()
     rng = np.random.default_rng(3)
     qs = np.array([chain.random_q(rng) for _ in range(4)])
-    from humanoid_ik.core.rotations import mat_to_quat
-    from humanoid_ik.core.types import Target
 
     targets = []
     for q in qs:
@@ -71,7 +81,7 @@ def test_peers_on_the_bundled_arm(peers):
         dm_python=NO_VENV,
     )
     by = {r.who: r for r in rows}
-    expected_ours = [s for s in peers.OURS if s in SOLVERS]
+    expected_ours = [s for s in peers.OURS if s == "solve_auto" or s in SOLVERS]
     assert [r.who for r in rows if r.ours] == expected_ours
     assert by["two_link"].skipped == "two_link solves position targets only"
     for who in [*expected_ours, "trac_ik_50ms"]:
@@ -93,8 +103,9 @@ def test_peers_on_the_bundled_arm(peers):
     assert by["dls"].per_iteration_over_floor == pytest.approx(
         by["dls"].cpu_per_iteration_us / floor
     )
+    assert by["trac_ik_50ms"].extra["fk_gap"] < 1e-9 and by["ikpy"].extra["fk_gap"] < 1e-9
     text = peers.markdown(rows, peers.ARMS, "head")
-    assert "| humanoid | pose | `trac_ik_50ms` | 100.0 % | 100.0 % |" in text
+    assert "| `trac_ik_50ms` | 100.0 % | 100.0 % |" in text
     assert f"| humanoid | {floor:.2f} |" in text  # the floor row shows the measured floor
     assert notes["versions"]["mujoco"] and notes["left_out"] == {}
 
@@ -139,6 +150,8 @@ def test_dm_control_in_its_own_venv(peers):
         (["--peers", "trac"], "peer 'trac' unknown; peers: trac_ik_5ms, trac_ik_50ms"),
         (["--tasks", "gaze"], "task 'gaze' unknown; tasks: position, pose"),
         (["--n", "0"], "--n must be >= 1, got 0"),
+        (["--ours", "lm,fast"], "solver 'fast' unknown; solvers: closed_form, two_link"),
+        (["--seeds", "0,x"], "--seeds takes comma-separated integers, got '0,x'"),
     ],
 )
 def test_bad_arguments_are_one_line(peers, capsys, argv, fragment):
@@ -161,3 +174,115 @@ def test_a_failing_dm_control_run_is_a_note(peers, tmp_path):
     assert results == {
         ("humanoid", "pose"): {"error": "dm_control run failed (exit 3): no dm_control here"}
     }
+
+
+def test_libraries_run_interleaved(peers, libs):
+    """Block by block, each library in turn: one untimed call on the first target, then
+    the block's targets in order; every library answers every target, and each block
+    has every library's turn."""
+    calls: list[tuple[str, int]] = []
+
+    def lib(name):
+        return libs.PeerRun(
+            lambda t: (calls.append((name, int(t.position[0]))), (t.position[:2], None))[1]
+        )
+
+    targets = [Target(np.array([float(i), 0.0, 0.0])) for i in range(5)]
+    out = peers.interleaved({w: lib(w) for w in "abc"}, targets, 2, block=2)
+    assert len(calls) == 3 * (3 + 5)  # three blocks (2, 2, 1 targets), one warm-up a turn
+    blocks = [calls[0:9], calls[9:18], calls[18:24]]
+    for blk, (lo, hi) in zip(blocks, [(0, 2), (2, 4), (4, 5)], strict=True):
+        size = 1 + hi - lo
+        by_turn = [blk[i : i + size] for i in range(0, len(blk), size)]
+        assert sorted(t[0][0] for t in by_turn) == ["a", "b", "c"]
+        for t in by_turn:
+            assert [x[1] for x in t] == [0, *range(lo, hi)] and len({x[0] for x in t}) == 1
+    for who, a in out.items():
+        assert a.q[:, 0].tolist() == [0.0, 1.0, 2.0, 3.0, 4.0], who
+        assert a.cpu.shape == (5,) and a.iterations is None
+
+
+def test_rtb_and_eaik_on_a_real_arm_two_seeds(peers):
+    """Kinova (6 hinges, three unlimited, others off zero such as [0.82, 5.46]) from
+    example-robot-data, three pose targets per seed, seeds 0 and 1: roboticstoolbox's
+    ik_LM / ik_NR and EAIK agree with MuJoCo's FK to 1e-9 before timing; the tight
+    ik_LM and EAIK with the 2 pi shift reach every target inside the ranges (checked by
+    MuJoCo FK); EAIK answers with one call; the tables show both seeds."""
+    pytest.importorskip("roboticstoolbox")
+    pytest.importorskip("eaik")
+    new = ["rtb_lm", "rtb_lm_tight", "rtb_nr_tight", "eaik", "eaik_raw"]
+    rows, _ = peers.run(
+        ["kinova"], 3, (0, 1), tasks=["pose"], peers=new, ours=["lm", "auto", "solve_auto"]
+    )
+    assert [(r.who, r.seed) for r in rows] == [
+        (w, s) for s in (0, 1) for w in ["lm", "auto", "solve_auto", *new]
+    ]
+    by = {(r.who, r.seed): r for r in rows}
+    for seed in (0, 1):
+        for who in new:
+            r = by[who, seed]
+            assert r.skipped is None and 0 <= r.extra["fk_gap"] < 1e-9, (who, r.extra)
+        for who in ["lm", "auto", "solve_auto", "rtb_lm_tight", "rtb_nr_tight", "eaik"]:
+            assert by[who, seed].inside == 1.0, (who, seed)
+        eaik = by["eaik", seed]
+        assert eaik.mean_iterations == 1.0  # one analytic call per target
+        assert 0 < eaik.extra["call_cpu_median_ms"] <= eaik.cpu_median_ms
+        assert by["rtb_lm", seed].mean_iterations >= 1
+    text = peers.markdown(rows, peers.ARMS, "head")
+    assert "`kinova`, pose targets (each cell: seed 0 / seed 1):" in text
+    assert "| `eaik` | 100.0 / 100.0 % | 100.0 / 100.0 % |" in text
+    assert "| Kinova j2s6s200 (6 hinges, 3 unlimited), example-robot-data | 100.0 % |" in text
+    assert "`eaik`: its own calls " in text
+
+
+def test_eaik_shift_brings_answers_into_the_ranges(peers, libs):
+    """EAIK gives angles in [-pi, pi]; Kinova's joint 2 has the range [0.82, 5.46], so
+    4.0 rad comes back as 4.0 - 2 pi, outside it: the shift brings it back, the raw
+    answer has none inside. On 20 Kinova pose targets every ``eaik`` answer is on
+    target inside the ranges by MuJoCo's FK, and ``eaik_raw`` misses some."""
+    pytest.importorskip("eaik")
+    chain, checker = peers.real_chain("kinova", "arm"), peers.real_chain("kinova", "arm")
+    lo, hi, start = chain.lower, chain.upper, chain.q_home
+    Q = np.array([[0.5, 4.0 - 2 * math.pi, 2.0, -1.0, 2.5, 0.3]])
+    assert libs.nearest_in_range(Q, start, lo, hi, shift=False) is None
+    shifted = libs.nearest_in_range(Q, start, lo, hi, shift=True)
+    assert shifted == pytest.approx([0.5, 4.0, 2.0, -1.0, 2.5, 0.3], abs=1e-12)
+    targets = make_targets(chain, 20, 0, True)
+    inside = {}
+    for shift in (True, False):
+        run = libs.setup_eaik(chain, shift, True)
+        answers = np.array([run.solve(t)[0] for t in targets])
+        ok, within = peers.check(checker, targets, answers)
+        inside[shift] = int((ok & within).sum())
+    assert inside[True] == 20 and inside[False] < 20, inside
+
+
+def test_eaik_on_a_7_hinge_arm_locks_one_joint(peers, libs):
+    """Talos's left arm (7 hinges): EAIK solves it with joint 1 locked, at the start's
+    value first, then that value plus and minus 1, 2, ... steps. A pose reached with
+    joint 1 at the start's value takes one call, one with joint 1 two steps above it at
+    most four (start, +1, -1, +2); both answers are on target inside the ranges by
+    MuJoCo's FK. G1's left arm has no lock EAIK knows: left out, with the reason."""
+    pytest.importorskip("eaik")
+    chain = peers.real_chain("talos", "left_arm")
+    run = libs.setup_eaik(chain, True, True)
+    assert run.notes["locked_joint"] == 0 and run.notes["lock_values"] > 10
+    assert run.fk_gap < 1e-9
+    s0 = float(np.clip(chain.q_home[0], chain.lower[0], chain.upper[0]))
+    rng = np.random.default_rng(4)
+    targets, most = [], []
+    for lock, calls in ((s0, 1), (s0 + 2 * libs.LOCK_STEP, 4)):
+        for _ in range(3):
+            q = chain.random_q(rng)
+            q[0] = lock
+            p, R = chain.fk(q)
+            targets.append(Target(p, mat_to_quat(R)))
+            most.append(calls)
+    chain.reset()
+    solved = [run.solve(t) for t in targets]
+    assert all(c <= m for (_, c), m in zip(solved, most, strict=True)), [c for _, c in solved]
+    checker = peers.real_chain("talos", "left_arm")
+    ok, inside = peers.check(checker, targets, np.array([q for q, _ in solved]))
+    assert ok.all() and inside.all()
+    g1 = libs.setup_eaik(peers.real_chain("g1", "left_arm"), True, True)
+    assert g1 == "EAIK knows no decomposition of this arm, nor with any one joint locked"
