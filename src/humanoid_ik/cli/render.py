@@ -1,6 +1,6 @@
 """The ``render`` subcommand of ``humanoid-ik``.
 
-``humanoid-ik render SCENE [--out DIR] [--solver NAME] [--frames N] [--until S]
+``humanoid-ik render SCENE [--model PATH] [--out DIR] [--solver NAME] [--frames N] [--until S]
 [--width W] [--height H] [--camera NAME] [--fps F] [--gif] [--no-video]`` runs a scene
 and films it. Heavy imports (MuJoCo's renderer, matplotlib) happen only when it runs.
 """
@@ -19,6 +19,7 @@ from humanoid_ik.cli.scene_args import (
     report_files,
     run_progress,
     scene_from_args,
+    scene_source,
 )
 
 __all__ = ["register"]
@@ -32,7 +33,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         from humanoid_ik.config.scene import load_scene, scene_model
         from humanoid_ik.core.models import staged_cameras
 
-        cams = staged_cameras(scene_model(load_scene(args.scene)))
+        cams = staged_cameras(scene_model(load_scene(args.scene, **scene_source(args))))
         if args.camera not in cams:
             raise UsageError(f"--camera '{args.camera}' not in model; cameras: {', '.join(cams)}")
     scene, out = scene_from_args(

@@ -1,6 +1,7 @@
 """The ``run`` subcommand of ``humanoid-ik``: a scene run without rendering.
 
-``humanoid-ik run SCENE [--out DIR] [--solver NAME] [--frames N] [--until S] [--fps F]``
+``humanoid-ik run SCENE [--model PATH] [--out DIR] [--solver NAME] [--frames N] [--until S]
+[--fps F]``
 runs the scene's frame loop and writes ``metrics.csv``, ``metrics.json``,
 ``trajectory.npz`` and ``trajectory.csv`` into ``renders/<scene>/`` (or ``--out``).
 """

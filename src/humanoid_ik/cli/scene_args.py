@@ -11,7 +11,14 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from humanoid_ik.cli.args import UsageError, int_in, nonempty_path
+from humanoid_ik.cli.args import (
+    UsageError,
+    add_limbs_file_arg,
+    add_package_arg,
+    int_in,
+    nonempty_path,
+    package_paths,
+)
 from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.config.specs import (
     MAX_FPS,
@@ -32,6 +39,7 @@ __all__ = [
     "report_files",
     "run_progress",
     "scene_from_args",
+    "scene_source",
 ]
 
 
@@ -77,9 +85,19 @@ def _seconds(text: str) -> float:
 
 
 def add_scene_args(p: argparse.ArgumentParser) -> None:
-    """``SCENE`` and what a run of it may change: ``--out``, ``--solver``, ``--frames``,
-    ``--until``, ``--fps`` (shared by ``render`` and ``run``)."""
+    """``SCENE`` and what a run of it may change: ``--model`` (with ``--package-path`` and
+    ``--limbs``), ``--out``, ``--solver``, ``--frames``, ``--until``, ``--fps`` (shared by
+    ``render`` and ``run``)."""
     p.add_argument("scene", metavar="SCENE", help="a scene .toml file or a bundled scene name")
+    p.add_argument(
+        "--model",
+        type=nonempty_path,
+        metavar="PATH",
+        help="run the scene on this MJCF, URDF or xacro model instead of its own (its limbs "
+        "and limb-relative targets are placed on it: docs/scenes.md)",
+    )
+    add_package_arg(p)
+    add_limbs_file_arg(p)
     p.add_argument(
         "--out",
         type=nonempty_path,
@@ -115,7 +133,9 @@ def scene_from_args(args: argparse.Namespace, **render: Any) -> tuple[Scene, Pat
     from humanoid_ik.config.scene import check_scene, load_scene
     from humanoid_ik.outputs.record import check_output_dir
 
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, **scene_source(args))
+    for note in scene.notes:
+        print(f"humanoid-ik: note: {note}", file=sys.stderr)
     if args.solver is not None:
         from humanoid_ik.solvers import SOLVERS
 
@@ -138,6 +158,16 @@ def scene_from_args(args: argparse.Namespace, **render: Any) -> tuple[Scene, Pat
     out = Path("renders") / scene.name if args.out is None else Path(args.out)
     check_output_dir(out)
     return scene, out
+
+
+def scene_source(args: argparse.Namespace) -> dict[str, Any]:
+    """The keywords of :func:`~humanoid_ik.config.scene.load_scene` that
+    :func:`add_scene_args`' ``--model``, ``--package-path`` and ``--limbs`` give."""
+    return {
+        "packages": package_paths(args),
+        "model": getattr(args, "model", None),
+        "limbs": getattr(args, "limbs", None),
+    }
 
 
 def run_progress(scene: Scene) -> tuple[Callable[[int, int], None], Callable[[], None]]:

@@ -7,6 +7,7 @@ A scene is a TOML file (read with ``tomllib``)::
     description = "Right hand traces a circle."
     model = "../models/humanoid/scene.xml"   # optional, relative to the scene file
     # package_path = { my_robot = "../my_robot" }   # ROS packages of a URDF's package://
+    # limbs = "robot.limbs.toml"       # a limb profile (docs/limbs.md), relative
     duration = 6.0                     # [s]
     fps = 30                           # frames per second
 
@@ -26,11 +27,14 @@ A scene is a TOML file (read with ``tomllib``)::
     [[targets]]
     name = "ball"
     motion = { kind = "circle", center = [0.40, -0.22, 1.22], radius = 0.12 }
+    # center = { limb = "right_arm", at = [0.63, -0.05, -0.28] }   # placed on the robot:
+    # radius = { limb = "right_arm", reach = 0.19 }  # config/placement.py, docs/scenes.md
     # orientation = { quat = [0.7071, 0, -0.7071, 0] }   # makes it a pose target
 
     [[effectors]]
-    site = "right_palm_site"           # or body = "tool_link" (a URDF link, an MJCF body)
-    target = "ball"
+    site = "right_palm_site"           # or body = "tool_link" (a URDF link, an MJCF body),
+    target = "ball"                    # or limb = "right_arm" (found from the model)
+    # torso = true                     # with limb: the torso helps the reach
     # task = "look_at"                 # aim the site's x axis at the target (gaze)
     # joints = [...]                   # default: the hinges from the site to the root
     # solver = { name = "ccd" }        # this effector's own solver
@@ -52,7 +56,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from humanoid_ik.config.scene_check import check_collision_pairs, check_scene, scene_model
+from humanoid_ik.config.scene_check import (
+    check_collision_pairs,
+    check_scene,
+    place_scene,
+    scene_model,
+)
 from humanoid_ik.config.specs import (
     MAX_FRAMES,
     TASKS,
@@ -135,10 +144,13 @@ def parse_scene(
     base: Path | None = None,
     *,
     packages: PackagePaths | None = None,
+    model: str | os.PathLike | None = None,
+    limbs: str | os.PathLike | None = None,
 ) -> Scene:
     """A :class:`Scene` from a parsed TOML document, validated by the typed model of
-    ``config/scene_schema.py`` (names are not checked against the model;
-    :func:`load_scene` does that).
+    ``config/scene_schema.py``. Names are checked against the model by
+    :func:`load_scene`; a scene with limb effectors or targets placed relative to a
+    limb is placed on its model here (:func:`~humanoid_ik.config.scene_check.place_scene`).
 
     Args:
         doc: the document, as ``tomllib`` returns it.
@@ -147,6 +159,10 @@ def parse_scene(
             working folder).
         packages: ROS package folders that take precedence over the document's
             ``package_path`` table (``--package-path``, a sweep file's table).
+        model: a model file to run the scene on instead of the document's ``model``
+            (``--model``; the document's ``limbs`` profile, written for its own model,
+            is then not read).
+        limbs: a limb profile file over the document's ``limbs`` (``--limbs``).
 
     Raises:
         SceneError: an unknown key, a missing one, a wrong type or a bad value.
@@ -157,28 +173,49 @@ def parse_scene(
     is_file = bool(source) and not source.startswith("<")
     doc = {"name": Path(source).stem if is_file else "scene", **doc}
     f = validate(SceneFile, doc, source, SceneError, base=base)
+    model_path = f.model if model is None else Path(model)
+    profile = Path(limbs) if limbs is not None else (f.limbs if model is None else None)
+    pkgs = {**f.package_path, **(packages or {})}
+    targets, effectors, notes = place_scene(
+        source,
+        model_path,
+        pkgs,
+        profile,
+        [t.track for t in f.targets],
+        [e.spec for e in f.effectors],
+    )
     return Scene(
         name=f.name,
         duration=f.duration,
         fps=f.fps,
         solver=f.solver,
-        targets=tuple(t.track for t in f.targets),
-        effectors=tuple(e.spec for e in f.effectors),
+        targets=targets,
+        effectors=effectors,
         render=f.render.spec,
-        model=f.model,
+        model=model_path,
         description=f.description,
         path=Path(source) if is_file else None,
-        packages={**f.package_path, **(packages or {})},
+        packages=pkgs,
+        limbs=profile,
+        notes=notes,
     )
 
 
 # ----------------------------------------------------------------------------- model checks
-def load_scene(path: str | os.PathLike, *, packages: PackagePaths | None = None) -> Scene:
+def load_scene(
+    path: str | os.PathLike,
+    *,
+    packages: PackagePaths | None = None,
+    model: str | os.PathLike | None = None,
+    limbs: str | os.PathLike | None = None,
+) -> Scene:
     """Read, validate and check a scene file (or a bundled scene's name) against its model.
 
     Args:
         path: the file, or a bundled scene's name.
         packages: ROS package folders ``{NAME: DIR}``, over the file's ``package_path``.
+        model: a model file instead of the file's ``model`` (see :func:`parse_scene`).
+        limbs: a limb profile file over the file's ``limbs``.
 
     Raises:
         SceneError: the file is missing or not TOML, or any value is wrong; the message
@@ -186,6 +223,7 @@ def load_scene(path: str | os.PathLike, *, packages: PackagePaths | None = None)
     """
     p = find_scene(path)
     source = display_path(p)
-    scene = parse_scene(read_toml(p, source, SceneError), source, p.parent, packages=packages)
+    doc = read_toml(p, source, SceneError)
+    scene = parse_scene(doc, source, p.parent, packages=packages, model=model, limbs=limbs)
     check_scene(scene)
     return scene

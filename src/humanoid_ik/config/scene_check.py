@@ -1,6 +1,8 @@
 """A parsed scene checked against its model: the model it runs on, its chains (one robot
-state for all effectors), the solvers fit them, the camera and frame size, the sizes and
-the collision pairs. ``config/scene.py`` validates the file (``config/scene_schema.py``)
+state for all effectors, each built by ``config/placement.py``'s ``effector_chain``), the
+solvers fit them, the camera and frame size, the sizes and the collision pairs; and
+(:func:`place_scene`) a scene's limb effectors and limb-relative targets placed on the
+model, in world values. ``config/scene.py`` validates the file (``config/scene_schema.py``)
 and calls :func:`check_scene` on the values; a scene built in code is checked the same
 way, its sizes too.
 
@@ -10,11 +12,20 @@ and what was expected.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import mujoco
 
+from humanoid_ik.config.placement import (
+    PlacedTrack,
+    RobotFrame,
+    effector_chain,
+    fixed_limb,
+)
 from humanoid_ik.config.specs import (
     MAX_CONTACT_SHEET,
     MAX_FPS,
@@ -24,6 +35,7 @@ from humanoid_ik.config.specs import (
     MIN_FPS,
     MIN_IMAGE_SIZE,
     SIZE,
+    EffectorSpec,
     Scene,
     SolverSpec,
     duration_problem,
@@ -32,13 +44,14 @@ from humanoid_ik.config.specs import (
 )
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.checks import check_int, check_number
+from humanoid_ik.core.limbs import Profile, profile_for
 from humanoid_ik.core.models import load_model, staged_cameras
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.errors import HumanoidIKError, MotionError, SceneError, show_value
-from humanoid_ik.motion import MAX_KNOTS, RandomWalk
+from humanoid_ik.motion import MAX_KNOTS, RandomWalk, TargetTrack
 from humanoid_ik.solvers.mink.options import collision_pairs_problem
 
-__all__ = ["check_collision_pairs", "check_scene", "scene_model"]
+__all__ = ["check_collision_pairs", "check_scene", "place_scene", "scene_model", "scene_profile"]
 
 
 class _Messages:
@@ -105,22 +118,26 @@ def _check_effector(
     robot: Robot,
     i: int,
     owner: dict[str, int],
+    profile: Callable[[], Profile],
 ) -> Chain:
-    """Effector ``i``'s chain once its site, joints and solver fit; ``owner`` (joint ->
-    effector index) gains its joints."""
+    """Effector ``i``'s chain once its site (body, limb), joints and solver fit; ``owner``
+    (joint -> effector index) gains its joints; ``profile`` gives the model's limbs."""
     model = robot.model
     eff = scene.effectors[i]
     key = f"effectors[{i}]"
-    objtype, count = {
-        "site": (mujoco.mjtObj.mjOBJ_SITE, model.nsite),
-        "body": (mujoco.mjtObj.mjOBJ_BODY, model.nbody),
-    }[eff.kind]
-    if mujoco.mj_name2id(model, objtype, eff.name) < 0:
-        found = [mujoco.mj_id2name(model, objtype, k) for k in range(count)]
-        valid = ", ".join(sorted(s for s in found if s)) or "none"
-        raise r.expect(f"{key}.{eff.kind}", f"a {eff.kind} of the model ({valid})", eff.name)
+    if eff.kind != "limb":
+        objtype, count = {
+            "site": (mujoco.mjtObj.mjOBJ_SITE, model.nsite),
+            "body": (mujoco.mjtObj.mjOBJ_BODY, model.nbody),
+        }[eff.kind]
+        if mujoco.mj_name2id(model, objtype, eff.name) < 0:
+            found = [mujoco.mj_id2name(model, objtype, k) for k in range(count)]
+            valid = ", ".join(sorted(s for s in found if s)) or "none"
+            raise r.expect(f"{key}.{eff.kind}", f"a {eff.kind} of the model ({valid})", eff.name)
     try:
-        chain = Chain(robot, eff.site, eff.joints, body=eff.body)
+        chain = effector_chain(robot, eff, profile() if eff.kind == "limb" else None)
+    except MotionError as exc:
+        raise r.expect(f"{key}.{exc.field}", exc.expected, exc.got) from None
     except HumanoidIKError as exc:
         raise r.fail(f"{key}.joints", str(exc)) from None
     for j in chain.joint_names:
@@ -209,10 +226,93 @@ def scene_model(scene: Scene) -> mujoco.MjModel:
     Raises:
         SceneError: the model file does not compile (``model`` key).
     """
+    return _model(scene.source, scene.model, scene.packages)
+
+
+def _model(source: str, path: Path, packages: Mapping[str, Path]) -> mujoco.MjModel:
     try:
-        return load_model(scene.model, packages=scene.packages)
+        return load_model(path, packages=packages)
     except HumanoidIKError as exc:
-        raise SceneError(scene.source, "model", str(exc)) from None
+        raise SceneError(source, "model", str(exc)) from None
+
+
+def scene_profile(
+    source: str,
+    model: mujoco.MjModel,
+    model_path: str | os.PathLike | None,
+    limbs: str | os.PathLike | None,
+) -> Profile:
+    """The limbs of a scene's model (:func:`~humanoid_ik.core.limbs.profile_for`: the
+    profile file ``limbs``, else a ``<model>.limbs.toml`` beside the model, over what is
+    found).
+
+    Raises:
+        SceneError: the profile file does not fit the model (``limbs`` key).
+    """
+    try:
+        return profile_for(model, model_path, limbs)
+    except HumanoidIKError as exc:
+        raise SceneError(source, "limbs", str(exc)) from None
+
+
+def place_scene(
+    source: str,
+    model_path: Path,
+    packages: Mapping[str, Path],
+    limbs: Path | None,
+    targets: Sequence[TargetTrack | PlacedTrack],
+    effectors: Sequence[EffectorSpec],
+) -> tuple[tuple[TargetTrack, ...], tuple[EffectorSpec, ...], tuple[str, ...]]:
+    """A scene's targets and effectors placed on its model: every placement in world
+    values (``config/placement.py``), every limb effector given its end frame and joints
+    (a ``look_at`` of a fixed head, as on G1, left out with a note). Returns the targets,
+    the effectors and the notes.
+
+    Raises:
+        SceneError: the model or the profile does not load, a limb the model lacks, a
+            value the motion refuses once placed (naming the key).
+    """
+    if not any(isinstance(t, PlacedTrack) for t in targets) and all(
+        e.kind != "limb" for e in effectors
+    ):
+        return tuple(targets), tuple(effectors), ()  # type: ignore[arg-type]
+    model = _model(source, model_path, packages)
+    profile = scene_profile(source, model, model_path, limbs)
+    frame = RobotFrame(model, profile)
+    placed: list[TargetTrack] = []
+    for i, t in enumerate(targets):
+        try:
+            placed.append(t.build(frame, f"targets[{i}]") if isinstance(t, PlacedTrack) else t)
+        except MotionError as exc:
+            raise SceneError(
+                source, exc.field, f"expected {exc.expected}, got {show_value(exc.got)}"
+            ) from None
+    out: list[EffectorSpec] = []
+    notes: list[str] = []
+    for i, e in enumerate(effectors):
+        if e.kind != "limb":
+            out.append(e)
+            continue
+        if fixed_limb(e, profile) and e.task == "look_at":
+            notes.append(
+                f"effectors[{i}]: the model's {e.limb} is fixed (no joints to turn it): its "
+                f"look_at of '{e.target}' is left out"
+            )
+            continue
+        try:
+            chain = effector_chain(frame.robot, e, profile)
+        except MotionError as exc:
+            raise SceneError(
+                source,
+                f"effectors[{i}].{exc.field}",
+                f"expected {exc.expected}, got {show_value(exc.got)}",
+            ) from None
+        site = chain.ee_name if chain.ee_kind == "site" else None
+        body = chain.ee_name if chain.ee_kind == "body" else None
+        out.append(replace(e, site=site, body=body, joints=tuple(chain.joint_names)))
+    if not out and notes:
+        raise SceneError(source, "effectors", f"expected an effector that can move; {notes[0]}")
+    return tuple(placed), tuple(out), tuple(f"{source}: {n}" for n in notes)
 
 
 def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain]:
@@ -238,7 +338,18 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
         model = scene_model(scene)
     robot = Robot(model)
     owner: dict[str, int] = {}
-    chains = [_check_effector(r, scene, robot, i, owner) for i in range(len(scene.effectors))]
+    found: list[Profile] = []
+
+    def profile() -> Profile:  # the limbs, found once and only for a limb effector
+        if not found:
+            found.append(scene_profile(scene.source, model, scene.model, scene.limbs))
+        return found[0]
+
+    chains = [
+        _check_effector(r, scene, robot, i, owner, profile) for i in range(len(scene.effectors))
+    ]
+    if not chains:
+        raise r.fail("effectors", "expected at least one effector")
     check_collision_pairs(scene, model)
     _check_render(r, scene, model)
     return chains

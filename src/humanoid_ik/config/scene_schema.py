@@ -23,6 +23,7 @@ from pydantic import (
     model_validator,
 )
 
+from humanoid_ik.config.placement import LIMBS, Placed, PlacedTrack, placed
 from humanoid_ik.config.schema import (
     Packages,
     SolverTable,
@@ -60,9 +61,14 @@ __all__ = ["SceneFile"]
 
 def _build(cls: Any, table: Table) -> Any:
     """``cls(**the parameters given)``, a motion or an orientation, which checks them;
-    its :class:`~humanoid_ik.errors.MotionError` is the error at the parameter's key."""
+    its :class:`~humanoid_ik.errors.MotionError` is the error at the parameter's key. A
+    parameter placed relative to the robot (``{ limb = ..., at = ... }``,
+    ``config/placement.py``) makes it a :class:`~humanoid_ik.config.placement.Placed`,
+    built once the model is known."""
+    params = table.model_dump(exclude_unset=True, exclude={"kind"})
     try:
-        return cls(**table.model_dump(exclude_unset=True, exclude={"kind"}))
+        later = placed(cls, params)
+        return cls(**params) if later is None else later
     except MotionError as exc:
         raise expected(exc.expected, exc.got, exc.field) from None
 
@@ -135,7 +141,9 @@ class TargetTable(Table):
     orientation: OrientationField | None = None
 
     @property
-    def track(self) -> TargetTrack:
+    def track(self) -> TargetTrack | PlacedTrack:
+        if isinstance(self.motion, Placed) or isinstance(self.orientation, Placed):
+            return PlacedTrack(self.name, self.motion, self.orientation)
         return TargetTrack(self.name, self.motion, self.orientation)
 
 
@@ -148,21 +156,41 @@ class EffectorTable(Table):
 
     site: Annotated[str, text("a site name")] | None = None
     body: Annotated[str, text("a body name")] | None = None
+    limb: Annotated[str, checked(check_choice, valid=LIMBS)] | None = None
     target: Any = Field(description="a target name")
     task: Annotated[str, checked(check_choice, valid=TASKS)] = "reach"
     joints: Annotated[tuple[str, ...], rule("a list of joint names", _names)] | None = None
+    torso: Annotated[bool, checked(check_bool)] = False
     solver: SolverField | None = None
 
     @model_validator(mode="after")
     def _one_end(self) -> EffectorTable:
-        if ("site" in self.model_fields_set) == ("body" in self.model_fields_set):
-            got = "both" if "site" in self.model_fields_set else "neither"
-            raise refused(f"expected a site or a body (one of them), got {got}", "site")
+        given = [k for k in ("site", "body", "limb") if k in self.model_fields_set]
+        if len(given) != 1:
+            got = ", ".join(given) if given else "none"
+            raise refused(f"expected one of site, body or limb, got {got}", (given or ["site"])[0])
+        if self.limb is not None and self.joints is not None:
+            raise refused(
+                "expected no joints with limb (the limb's joints are found from the model; "
+                "name a site or body to list joints)",
+                "joints",
+            )
+        if self.torso and self.limb is None:
+            raise refused("expected torso = true only with limb", "torso")
         return self
 
     @property
     def spec(self) -> EffectorSpec:
-        return EffectorSpec(self.site, self.target, self.task, self.joints, self.solver, self.body)
+        return EffectorSpec(
+            self.site,
+            self.target,
+            self.task,
+            self.joints,
+            self.solver,
+            self.body,
+            self.limb,
+            self.torso,
+        )
 
 
 Size = Annotated[int, rule(SIZE, frame_size_ok)]
@@ -207,8 +235,19 @@ def _model_path(value: Any, info: ValidationInfo) -> Path:
     return path
 
 
+def _limbs_path(value: Any, info: ValidationInfo) -> Path:
+    """``limbs``: an existing limb profile file, relative to the scene file's folder."""
+    if not isinstance(value, str) or not value:
+        raise expected("a limb profile file (TOML, relative to the scene file)", value)
+    path = Path(value)
+    path = path if path.is_absolute() else ((info.context or {}).get("base") or Path(".")) / path
+    if not path.is_file():
+        raise refused(f"expected a limb profile file (TOML), got {value!r} (not found)")
+    return path
+
+
 TARGETS = "an array of tables [[targets]] with name and motion"
-EFFECTORS = "an array of tables [[effectors]] with site (or body) and target"
+EFFECTORS = "an array of tables [[effectors]] with site (or body, or limb) and target"
 
 
 class SceneFile(Table):
@@ -218,6 +257,7 @@ class SceneFile(Table):
     description: String = ""
     model: Annotated[Path, BeforeValidator(_model_path)] = Field(default_factory=bundled_model_path)
     package_path: Packages = {}
+    limbs: Annotated[Path, BeforeValidator(_limbs_path)] | None = None
     duration: Annotated[float, checked(check_number, low=0.0, strict=True)] = Field(
         description="a number > 0 (seconds)"
     )
@@ -244,7 +284,7 @@ class SceneFile(Table):
                     f"targets[{i}].name",
                 )
         for i, e in enumerate(self.effectors):
-            for kind in ("site", "body"):
+            for kind in ("site", "body", "limb"):
                 end = getattr(e, kind)
                 if end is not None and any(getattr(o, kind) == end for o in self.effectors[:i]):
                     raise refused(

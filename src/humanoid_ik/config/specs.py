@@ -133,19 +133,24 @@ class SolverSpec:
 
 @dataclass(frozen=True)
 class EffectorSpec:
-    """An end effector (a site or a body, and the joints that move it) and the target it
-    tracks.
+    """An end effector (a site, a body or a limb, and the joints that move it) and the
+    target it tracks.
 
     Attributes:
-        site: the end-effector site, e.g. ``right_palm_site`` (``None`` when ``body``
-            names the end effector).
+        site: the end-effector site, e.g. ``right_palm_site`` (``None`` when ``body`` or
+            ``limb`` names the end effector).
         target: the name of the target it tracks.
         task: ``reach`` or ``look_at`` (aim the site's x axis at the target).
         joints: the chain's joints, or ``None`` for every hinge from the end effector to
-            the root.
+            the root (or, with ``limb``, the limb's).
         solver: this effector's own solver, or ``None`` for the scene's solver (a
             ``look_at`` effector then uses ``look_at``).
         body: the end-effector body, e.g. ``tool_link`` of a URDF, instead of a site.
+        limb: a limb found from the model (``right_arm``, ``left_arm``, ``head``, ``arm``;
+            ``docs/limbs.md``) instead of a site or body. A scene read from a file has it
+            placed on its model: ``site`` or ``body`` and ``joints`` then hold the limb's
+            end frame and joints, and ``limb`` says where they came from.
+        torso: with ``limb``: the torso's joints come first (they help the reach).
     """
 
     site: str | None
@@ -154,14 +159,18 @@ class EffectorSpec:
     joints: tuple[str, ...] | None = None
     solver: SolverSpec | None = None
     body: str | None = None
+    limb: str | None = None
+    torso: bool = False
 
     def __post_init__(self) -> None:
-        if (self.site is None) == (self.body is None):
+        if (self.site is not None and self.body is not None) or (
+            self.site is None and self.body is None and self.limb is None
+        ):
             raise SceneError(
                 "<effector>",
                 "site",
-                f"expected a site or a body, got site {show_value(self.site)} and body "
-                f"{show_value(self.body)}",
+                f"expected a site, a body or a limb, got site {show_value(self.site)} and "
+                f"body {show_value(self.body)}",
             )
         if self.task not in TASKS:
             raise SceneError(
@@ -169,20 +178,23 @@ class EffectorSpec:
                 "task",
                 f"expected one of {', '.join(map(repr, TASKS))}, got {show_value(self.task)}",
             )
+        if self.torso and self.limb is None:
+            raise SceneError("<effector>", "torso", "expected a limb with torso = true")
         if self.joints is not None:
             object.__setattr__(self, "joints", tuple(self.joints))
 
     @property
     def name(self) -> str:
-        """The end effector's name: its site, else its body."""
+        """The end effector's name: its site, else its body, else its limb."""
         name = self.site if self.site is not None else self.body
-        assert name is not None  # __post_init__
-        return name
+        return name if name is not None else str(self.limb)
 
     @property
     def kind(self) -> str:
-        """``site`` or ``body``."""
-        return "site" if self.site is not None else "body"
+        """``site``, ``body`` or (not yet placed on a model) ``limb``."""
+        if self.site is not None:
+            return "site"
+        return "body" if self.body is not None else "limb"
 
 
 @dataclass(frozen=True)
@@ -229,6 +241,10 @@ class Scene:
         path: the file it came from (for messages), or ``None``.
         packages: ROS package folders ``{NAME: DIR}`` a URDF's ``package://NAME/...``
             paths are looked up in first (the file's ``package_path`` table).
+        limbs: a limb profile file (``docs/limbs.md``) naming the model's limbs, instead
+            of those found (and of a ``<model>.limbs.toml`` beside the model).
+        notes: what placing the scene on its model decided, one line each (a fixed
+            head's ``look_at`` effector left out).
     """
 
     name: str
@@ -242,6 +258,8 @@ class Scene:
     description: str = ""
     path: Path | None = None
     packages: Mapping[str, Path] = field(default_factory=dict)
+    limbs: Path | None = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))

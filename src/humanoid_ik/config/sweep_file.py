@@ -21,8 +21,10 @@ A sweep is a TOML file (read with ``tomllib``)::
     name = "right_pose"
     task = "pose"                      # position or pose (default pose)
     n = 200
-    site = "right_palm_site"           # optional (or body = "tool_link"); also model
-                                       # (an MJCF or URDF path, relative) and joints
+    site = "right_palm_site"           # optional (or body = "tool_link", or a limb found
+                                       # from the model: limb = "left_arm", torso = true);
+                                       # also model (an MJCF or URDF path, relative) and
+                                       # joints
 
 The grid is ``(scenes + target sets) x solver configurations x seeds``, at most
 :data:`MAX_JOBS` jobs. A seed draws a target set; for a scene it replaces the seed of
@@ -46,13 +48,18 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import mujoco
+
+from humanoid_ik.config.placement import effector_chain
 from humanoid_ik.config.scene import Scene, find_scene, frames_limit, load_scene
-from humanoid_ik.config.specs import MAX_JOBS
+from humanoid_ik.config.specs import MAX_JOBS, EffectorSpec
 from humanoid_ik.config.toml import display_path, integer_problem, read_toml
 from humanoid_ik.core.chain import DEFAULT_SITE, Chain
+from humanoid_ik.core.limbs import profile_for
 from humanoid_ik.core.model_files import model_digest, model_files
 from humanoid_ik.core.models import bundled_model_path, load_model
-from humanoid_ik.errors import HumanoidIKError, SweepError, show_value
+from humanoid_ik.core.robot import Robot
+from humanoid_ik.errors import HumanoidIKError, MotionError, SweepError, show_value
 from humanoid_ik.motion import RandomWalk
 
 __all__ = [
@@ -66,6 +73,7 @@ __all__ = [
     "parse_sweep",
     "reseeded",
     "scene_digest",
+    "target_set_chain",
 ]
 
 KINDS = ("scene", "targets")
@@ -101,7 +109,8 @@ class Job:
         params: what else defines the job, as sorted ``(key, value)`` pairs: for a scene
             ``frames``, ``scene_sha256`` (of the file) and ``model_sha256`` (of its model's
             files), for a target set ``task``, ``n``, ``site``, ``joints``, ``model`` (as
-            written in the sweep file) and ``model_sha256``.
+            written in the sweep file) and ``model_sha256``, and ``body``, ``limb`` and
+            ``torso`` when given.
         location: the scene file or model to load (resolved); not part of the id.
         packages: the sweep file's ROS package folders as sorted ``(NAME, DIR)`` pairs,
             given to the scene or model it loads (:meth:`package_dict`); not part of the
@@ -254,10 +263,23 @@ def _target_sets(
     out = []
     for i, t in enumerate(entries):
         key = f"targets[{i}]"
-        site = DEFAULT_SITE if t.site is None and t.body is None else t.site
+        site = DEFAULT_SITE if t.site is None and t.body is None and t.limb is None else t.site
         location = bundled_model_path() if t.model is None else (base / t.model).resolve()
         try:
-            Chain(load_model(location, packages=packages), site, t.joints, body=t.body)
+            target_set_chain(
+                load_model(location, packages=packages),
+                location,
+                {
+                    "site": site,
+                    "body": t.body,
+                    "joints": t.joints,
+                    "limb": t.limb,
+                    "torso": t.torso,
+                },
+            )
+        except MotionError as exc:
+            what = f"expected {exc.expected}, got {show_value(exc.got)}"
+            raise fail(f"{key}.{exc.field}", what) from None
         except HumanoidIKError as exc:
             kind = getattr(exc, "kind", "")
             sub = {"site": "site", "body": "body", "joint": "joints"}.get(
@@ -277,12 +299,39 @@ def _target_sets(
                     "model_sha256": model_digest(location, packages=packages),
                     # only when given, so the ids of site target sets stay as they were
                     **({} if t.body is None else {"body": t.body}),
+                    **({} if t.limb is None else {"limb": t.limb}),
+                    **({"torso": True} if t.torso else {}),
                 },
                 "location": str(location),
                 "seeded": True,
             }
         )
     return out
+
+
+def target_set_chain(
+    model: mujoco.MjModel, location: str | os.PathLike, param: Mapping[str, Any]
+) -> Chain:
+    """The chain of a target set on ``model`` (its file ``location``) from its ``site``,
+    ``body``, ``joints``, ``limb`` and ``torso`` (a job's :attr:`Job.param`), built by
+    :func:`~humanoid_ik.config.placement.effector_chain` (a limb from the model's
+    profile, ``<model>.limbs.toml`` beside it when there is one).
+
+    Raises:
+        MotionError: a limb the model lacks (field ``limb``).
+        HumanoidIKError: a site, body or joint the model lacks.
+    """
+    joints = param.get("joints")
+    spec = EffectorSpec(
+        param.get("site"),
+        "targets",
+        joints=None if joints is None else tuple(joints),
+        body=param.get("body"),
+        limb=param.get("limb"),
+        torso=bool(param.get("torso", False)),
+    )
+    profile = profile_for(model, location) if spec.kind == "limb" else None
+    return effector_chain(Robot(model), spec, profile)
 
 
 def parse_sweep(doc: Mapping[str, Any], source: str, base: Path | None = None) -> Sweep:

@@ -12,6 +12,7 @@ from typing import Annotated, Any
 from pydantic import BeforeValidator, Field, PrivateAttr, model_validator
 from pydantic_core import PydanticCustomError
 
+from humanoid_ik.config.placement import LIMBS
 from humanoid_ik.config.schema import (
     Name,
     Packages,
@@ -29,7 +30,7 @@ from humanoid_ik.config.schema import (
 )
 from humanoid_ik.config.specs import MAX_JOBS, SolverSpec
 from humanoid_ik.config.toml import NAME
-from humanoid_ik.core.checks import MAX_TARGETS, check_choice
+from humanoid_ik.core.checks import MAX_TARGETS, check_bool, check_choice
 from humanoid_ik.core.types import TARGET_KINDS
 
 __all__ = ["SweepFile"]
@@ -103,13 +104,23 @@ class TargetSetEntry(Table):
     n: Annotated[int, integer(1, MAX_TARGETS)] = Field(description="an integer >= 1")
     site: Annotated[str, text("a site name")] | None = None
     body: Annotated[str, text("a body name (instead of site)")] | None = None
+    limb: Annotated[str, checked(check_choice, valid=LIMBS)] | None = None
+    torso: Annotated[bool, checked(check_bool)] = False
     model: Annotated[str, text("an MJCF or URDF path (relative to the sweep file)")] | None = None
     joints: Annotated[list[str], rule("a list of joint names", _names)] | None = None
 
     @model_validator(mode="after")
     def _one_end(self) -> TargetSetEntry:
-        if self.site is not None and self.body is not None:
-            raise refused("expected a site or a body, not both", "body")
+        given = [k for k in ("site", "body", "limb") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise refused(f"expected one of site, body or limb, got {', '.join(given)}", given[-1])
+        if self.limb is not None and self.joints is not None:
+            raise refused(
+                "expected no joints with limb (the limb's joints are found from the model)",
+                "joints",
+            )
+        if self.torso and self.limb is None:
+            raise refused("expected torso = true only with limb", "torso")
         return self
 
 

@@ -129,13 +129,16 @@ class Profile:
     Attributes:
         limbs: the limbs found, by name.
         forward: the robot's forward direction in the world at home ``(3,)`` (unit,
-            horizontal).
+            horizontal): THE forward direction (scene placements, the stage's cameras).
         notes: what was decided and why, one line each.
+        forward_from: what gave ``forward``: ``"arms"`` (``left x up`` from the sided
+            arms' shoulders), ``"profile"`` (a profile file), ``""`` (none: +x assumed).
     """
 
     limbs: Mapping[str, Limb]
     forward: tuple[float, float, float] = (1.0, 0.0, 0.0)
     notes: tuple[str, ...] = field(default=())
+    forward_from: str = ""
 
     def limb(self, name: str) -> Limb:
         """The limb called ``name``.
@@ -239,14 +242,14 @@ def find_limbs(model: mujoco.MjModel) -> Profile:
 
     arm_js = {s: [j for j, (k, sd) in info.items() if k == "arm" and sd == s] for s in _SIDE_NAMES}
     unsided = [j for j, (k, sd) in info.items() if k == "arm" and sd is None]
-    source = "names"
+    source, forward_from = "names", ""
     forward = np.array([1.0, 0.0, 0.0])
     if arm_js["left"] and arm_js["right"]:
         left = t.d.xanchor[arm_js["left"][0]] - t.d.xanchor[arm_js["right"][0]]
         left[2] = 0.0
         if np.linalg.norm(left) > 1e-6:
             fwd = np.cross(left, [0.0, 0.0, 1.0])
-            forward = fwd / np.linalg.norm(fwd)
+            forward, forward_from = fwd / np.linalg.norm(fwd), "arms"
     elif unsided and len({_branch_key(t, j, unsided) for j in unsided}) == 2:
         arm_js, source = _sides_by_geometry(t, unsided, forward), "geometry"
         notes.append("the arms' joints name no side: sides from geometry, +x forward")
@@ -290,7 +293,8 @@ def find_limbs(model: mujoco.MjModel) -> Profile:
             limbs[f"{side}_leg"] = Limb(f"{side}_leg", tuple(_jname(t, j) for j in sorted(leg)))
     order = {n: i for i, n in enumerate(LIMB_NAMES)}
     ordered = dict(sorted(limbs.items(), key=lambda kv: order[kv[0]]))
-    return Profile(ordered, (float(forward[0]), float(forward[1]), float(forward[2])), tuple(notes))
+    fwd3 = (float(forward[0]), float(forward[1]), float(forward[2]))
+    return Profile(ordered, fwd3, tuple(notes), forward_from)
 
 
 _SIDE_NAMES = ("left", "right")
@@ -535,7 +539,8 @@ def _merge(model: mujoco.MjModel, found: Profile, data: Mapping[str, Any], path:
             axis = (float(a[0]), float(a[1]), float(a[2]))
         limbs[name] = Limb(name, tuple(joints), frame, frame_name, axis, "profile")
     fwd = data.get("forward", found.forward)
-    return Profile(limbs, tuple(float(v) for v in fwd), found.notes)  # type: ignore[arg-type]
+    src = "profile" if "forward" in data else found.forward_from
+    return Profile(limbs, tuple(float(v) for v in fwd), found.notes, src)  # type: ignore[arg-type]
 
 
 def limb_chain(

@@ -7,10 +7,12 @@ is the run's (the stage adds no joint, so ``qpos`` and every chain are the same)
 
 The cameras face the robot and frame what the film shows:
 
-- **Facing.** The robot's forward direction is :func:`facing` of the chains filmed:
-  the side toward which they reach (the mean of their sampled end-effector positions,
-  :meth:`~humanoid_ik.core.chain.Chain.reach_mean`), else the side their effectors are
-  on at home, else the side of the targets, else +x. The azimuths of
+- **Facing.** The robot's forward direction is :func:`facing`: the limb profile's
+  (:attr:`~humanoid_ik.core.limbs.Profile.forward`, the one scene placements use) when
+  it found one (from the two arms' sides, or a profile file), else a cue from the
+  chains filmed: the side toward which they reach (the mean of their sampled
+  end-effector positions, :meth:`~humanoid_ik.core.chain.Chain.reach_mean`), else the
+  side their effectors are on at home, else the side of the targets, else +x. The azimuths of
   :data:`~humanoid_ik.core.models.STAGE_CAMERAS` are measured from it: ``front`` looks
   at the robot's front, ``side`` at its right, ``three_quarter`` from front right.
 - **Framing.** Each camera keeps its direction and is placed as close as it can be with
@@ -32,7 +34,10 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from humanoid_ik.config.placement import effector_chain
+from humanoid_ik.config.specs import EffectorSpec
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.limbs import Profile, profile_for
 from humanoid_ik.core.models import (
     STAGE_CAMERAS,
     compile_spec,
@@ -138,7 +143,7 @@ def staged_spec(
         return spec
     pts = _framed_points(base, points, poses)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    forward = facing(chains, points)
+    forward = facing(chains, points, profile_for(base, model_file(model)))
     world = spec.worldbody
     if base.nlight == 0:
         _add_lights(world, lo, hi, forward)
@@ -205,15 +210,28 @@ def trajectory_chains(
             continue
         # a file from before effectors kept their kind says "site" for a body too
         site = e.kind == "site" and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, e.site) >= 0
-        out.append(Chain(robot, e.site if site else None, e.joints, body=None if site else e.site))
+        spec = EffectorSpec(
+            e.site if site else None,
+            e.target_name,
+            e.task,
+            e.joints,
+            body=None if site else e.site,
+        )
+        out.append(effector_chain(robot, spec))
     return out
 
 
-def facing(chains: Sequence[Chain] = (), points: ArrayLike | None = None) -> NDArray[np.float64]:
+def facing(
+    chains: Sequence[Chain] = (),
+    points: ArrayLike | None = None,
+    profile: Profile | None = None,
+) -> NDArray[np.float64]:
     """The robot's forward direction: a horizontal unit vector ``(3,)``.
 
-    The first cue at least :data:`FACING_MIN` of the chains' summed reach long, in the
-    horizontal plane, gives it:
+    ``profile``'s :attr:`~humanoid_ik.core.limbs.Profile.forward` when it found one
+    (``forward_from``: the arms' sides or a profile file), as scene placements take it.
+    Else the first cue at least :data:`FACING_MIN` of the chains' summed reach long, in
+    the horizontal plane, gives it:
 
     1. the side toward which the chains reach: the sum of their
        :meth:`~humanoid_ik.core.chain.Chain.reach_mean` (an arm's elbow and shoulder
@@ -228,7 +246,12 @@ def facing(chains: Sequence[Chain] = (), points: ArrayLike | None = None) -> NDA
     Args:
         chains: the chains filmed; each is left as it was.
         points: world points ``(k, 3)`` [m].
+        profile: the model's limbs (:func:`~humanoid_ik.core.limbs.profile_for`).
     """
+    if profile is not None and profile.forward_from:
+        flat = np.array([profile.forward[0], profile.forward[1], 0.0])
+        if float(np.linalg.norm(flat)) > 0:
+            return flat / np.linalg.norm(flat)
     scale = sum(c.reach()[1] for c in chains) or 1.0
     cues = [sum((c.reach_mean() for c in chains), np.zeros(3))]
     home = np.zeros(3)

@@ -19,8 +19,7 @@ from typing import Any
 import numpy as np
 
 from humanoid_ik.config.scene import SolverSpec, load_scene
-from humanoid_ik.config.sweep_file import Job, reseeded, scene_digest
-from humanoid_ik.core.chain import Chain
+from humanoid_ik.config.sweep_file import Job, reseeded, scene_digest, target_set_chain
 from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model
 from humanoid_ik.errors import SweepError
@@ -97,7 +96,7 @@ def _run_targets(job: Job) -> dict[str, Any]:
     _check_model(job, job.location, job.package_dict)
     p = job.param
     model = load_model(job.location, packages=job.package_dict)
-    chain = Chain(model, p["site"], p["joints"], body=p.get("body"))
+    chain = target_set_chain(model, job.location, p)
     pose = p["task"] == "pose"
     solver = make_solver(job.solver, **job.options_dict)
     reason = not_reaching(solver, chain, pose)
