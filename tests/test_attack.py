@@ -35,6 +35,20 @@ name = "a"
 n = 2
 """
 
+CIRCLE_MOTION = (
+    "[targets.motion]\n"
+    "# center: 0.63 reach forward of the right shoulder, 0.21 out to the right, 0.32 down; "
+    "radius 0.19\n"
+    "# reach (on the bundled humanoid: center [0.40, -0.32, 1.20] m, radius 0.12 m); normal: "
+    "forward\n"
+    'kind = "circle"\n'
+    'center = { limb = "right_arm", at = [0.634920635, -0.206349206, -0.317460317] }\n'
+    'radius = { limb = "right_arm", reach = 0.19047619 }\n'
+    "normal = { robot = [1, 0, 0] }\n"
+    "period = 4.0"
+)
+"""circle.toml's motion table, which the edits below replace by another motion."""
+
 SCENE_EDITS = {
     "duration": ("duration = 4.0", "duration = 1e300"),
     "long": ("duration = 4.0", "duration = 3334.0"),
@@ -44,20 +58,17 @@ SCENE_EDITS = {
     "sheet": ('camera = "front"', 'camera = "front"\ncontact_sheet = 1000000'),
     "snapshots": ('camera = "front"', f'camera = "front"\nsnapshots = {[0.0] * 101}'),
     "interval": (
-        'motion = { kind = "circle", center = [0.40, -0.32, 1.20], radius = 0.12, '
-        "normal = [1, 0, 0], period = 4.0 }",
+        CIRCLE_MOTION,
         'motion = { kind = "random_walk", center = [0.4, -0.3, 1.2], '
         "half_extent = [0.1, 0.1, 0.1], interval = 1e-9 }",
     ),
     "walk": (
-        'motion = { kind = "circle", center = [0.40, -0.32, 1.20], radius = 0.12, '
-        "normal = [1, 0, 0], period = 4.0 }",
+        CIRCLE_MOTION,
         'motion = { kind = "random_walk", center = [0.4, -0.3, 1.2], '
         "half_extent = [0.1, 0.1, 0.1], interval = 0.001 }",
     ),
     "points": (
-        'motion = { kind = "circle", center = [0.40, -0.32, 1.20], radius = 0.12, '
-        "normal = [1, 0, 0], period = 4.0 }",
+        CIRCLE_MOTION,
         'motion = { kind = "points", points = ' + str([[0.4, -0.3, 1.2]] * 10_001) + " }",
     ),
 }
