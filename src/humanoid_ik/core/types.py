@@ -41,7 +41,11 @@ _FLOAT64 = np.dtype(np.float64)
 
 @dataclass(frozen=True)
 class Target:
-    """A position target ``(3,)`` in [m], optionally with a wxyz orientation ``(4,)``.
+    """A position target ``(3,)`` in [m], optionally with a wxyz orientation ``(4,)``
+    and an elbow *pole* ``(3,)`` [m]: the world point the elbow should point towards
+    (Maya's pole vector, Unreal's two-bone IK joint target). The elbow then lies in the
+    plane through the shoulder, the wrist and the pole, on the pole's side, where the
+    arm's ranges allow (``docs/solvers.md`` lists the solvers that honour it).
 
     Raises:
         TargetError: wrong shape, NaN/inf, a coordinate beyond 1e6 m, or a zero /
@@ -50,6 +54,7 @@ class Target:
 
     position: NDArray[np.float64]
     quat: NDArray[np.float64] | None = None
+    pole: NDArray[np.float64] | None = None
     rotation: NDArray[np.float64] | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -66,6 +71,8 @@ class Target:
             )
         p.setflags(write=False)
         object.__setattr__(self, "position", p)
+        if self.pole is not None:
+            object.__setattr__(self, "pole", _point("elbow pole", self.pole))
         if self.quat is None:
             object.__setattr__(self, "rotation", None)
             return
@@ -78,15 +85,19 @@ class Target:
 
     @classmethod
     def of(cls, target: Target | ArrayLike, quat: ArrayLike | None = None) -> Target:
-        """A ``Target`` from a ``Target`` or a position (and an optional quaternion)."""
+        """A ``Target`` from a ``Target`` or a position (and an optional quaternion; a
+        ``Target``'s pole is kept)."""
         q = None if quat is None else float_array("quaternion", quat)
         if isinstance(target, Target):
-            return target if q is None else cls(target.position, q)
+            return target if q is None else cls(target.position, q, target.pole)
         return cls(float_array("target position", target), q)
 
     @classmethod
     def from_motion(
-        cls, position: NDArray[np.float64], quat: NDArray[np.float64] | None = None
+        cls,
+        position: NDArray[np.float64],
+        quat: NDArray[np.float64] | None = None,
+        pole: NDArray[np.float64] | None = None,
     ) -> Target:
         """The target a motion gives at one instant, without the checks of user input.
 
@@ -95,11 +106,17 @@ class Target:
         (not copied; made read-only) and only its coordinates are bounded, with the
         constructor's error. Anything else, and a pose target's quaternion (which the
         constructor normalises), goes through the constructor. The frame loop builds
-        every frame's targets this way.
+        every frame's targets this way. A ``pole`` (an effector's elbow pole, itself a
+        motion's output) goes through the constructor too.
         """
         p = position
-        if quat is not None or type(p) is not np.ndarray or p.dtype is not _FLOAT64:
-            return cls(p, quat)
+        if (
+            quat is not None
+            or pole is not None
+            or type(p) is not np.ndarray
+            or p.dtype is not _FLOAT64
+        ):
+            return cls(p, quat, pole)
         if p.shape != (3,):
             return cls(p)
         x, y, z = p.tolist()
@@ -107,13 +124,30 @@ class Target:
             return cls(p)  # raises the constructor's error
         p.setflags(write=False)
         new = object.__new__(cls)
-        new.__dict__.update(position=p, quat=None, rotation=None)
+        new.__dict__.update(position=p, quat=None, pole=None, rotation=None)
         return new
 
     @property
     def is_pose(self) -> bool:
         """True when the target includes an orientation."""
         return self.quat is not None
+
+
+def _point(what: str, value: ArrayLike) -> NDArray[np.float64]:
+    """``value`` as a read-only ``(3,)`` point [m] within :data:`MAX_COORDINATE`.
+
+    Raises:
+        TargetError: not 3 finite numbers, or beyond 1e6 m (the message starts with ``what``).
+    """
+    p = float_array(what, value)
+    if p.shape != (3,):
+        raise TargetError(f"{what} must have 3 values (x, y, z), got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise TargetError(f"{what} {p.tolist()} is not finite")
+    if np.any(np.abs(p) > MAX_COORDINATE):
+        raise TargetError(f"{what} {p.tolist()} lies beyond {MAX_COORDINATE:g} m; expected metres")
+    p.setflags(write=False)
+    return p
 
 
 _NO_DETAILS: Mapping[str, Any] = MappingProxyType({})

@@ -18,6 +18,7 @@ from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.analytic.two_link.geometry import limb_cache
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
+from humanoid_ik.solvers.registry import SOLVERS
 
 __all__ = ["LimbInfo", "limb_infos", "limb_lines", "limb_pairs", "pair_lines"]
 
@@ -77,6 +78,14 @@ def limb_infos(model: mujoco.MjModel, profile: Profile) -> tuple[LimbInfo, ...]:
     return tuple(out)
 
 
+_POLE = (
+    "honoured by "
+    + ", ".join(n for n, c in SOLVERS.items() if c.honours_pole and n != "auto")
+    + " (auto: by the solver it runs; the others ignore it; docs/solvers.md)"
+)
+"""What the report says of an arm's elbow pole (``Target.pole``)."""
+
+
 def limb_lines(limbs: tuple[LimbInfo, ...], notes: tuple[str, ...] = ()) -> list[str]:
     """The limbs section of the text report."""
     if not limbs:
@@ -103,6 +112,8 @@ def limb_lines(limbs: tuple[LimbInfo, ...], notes: tuple[str, ...] = ()) -> list
                 task = "pose" if solver == "closed_form" else "position"
                 state = f"applies (exact, {task} targets)" if why is None else f"no: {why}"
                 out.append(f"  {'':<{width}}  {solver}: {state}")
+            if "arm" in lb.name:
+                out.append(f"  {'':<{width}}  elbow pole: {_POLE}")
     out += [f"  note: {n}" for n in notes]
     return out
 

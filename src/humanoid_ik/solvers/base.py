@@ -53,6 +53,9 @@ class Solver(ABC):
     supports_orientation: ClassVar[bool] = False
     reaches: ClassVar[bool] = True
     """True for solvers that move the site onto the target (the bench's reaching tasks)."""
+    honours_pole: ClassVar[bool] = False
+    """True for solvers that turn the elbow toward a target's pole (``Target.pole``);
+    the others solve without it and say so: ``details["pole"] == "ignored"``."""
     solves_effectors: ClassVar[bool] = False
     """True for solvers that solve several effectors jointly (:meth:`solve_effectors`)."""
     Options: ClassVar[type[SolverOptions]] = SolverOptions
@@ -151,7 +154,10 @@ class Solver(ABC):
             if reason is not None:
                 raise SolverError(reason)
             start = chain.q if q0 is None else chain.check_q(q0)
-            return self._solve(chain, tgt, chain.clip(start))
+            res = self._solve(chain, tgt, chain.clip(start))
+            if tgt.pole is not None and "pole" not in res.details:
+                res = res.with_details(pole="ignored")
+            return res
         finally:
             chain.release()
 

@@ -11,6 +11,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.solvers.jacobian.lm import pole_steps
 from humanoid_ik.solvers.jacobian.loop import JacobianOptions, JacobianSolver
 from humanoid_ik.solvers.options import SolverOptions
 
@@ -52,9 +54,13 @@ class DLS(JacobianSolver):
     is the pseudo-inverse step; near one it stays bounded. The system is solved by
     MuJoCo's Cholesky factorisation (``mju_cholFactor``/``mju_cholSolve``), whose diagonal
     also gives ``w``, without a separate determinant.
+
+    An elbow pole is honoured after convergence as ``lm`` does
+    (:func:`~humanoid_ik.solvers.jacobian.lm.pole_steps`, in the task's null space).
     """
 
     name: ClassVar[str] = "dls"
+    honours_pole: ClassVar[bool] = True
     summary: ClassVar[str] = "damped least squares, damping adapts near singularities"
     Options: ClassVar[type[SolverOptions]] = DLSOptions
     options: DLSOptions
@@ -64,6 +70,12 @@ class DLS(JacobianSolver):
         super().prepare(chain)
         for rows in (3, 6):
             _manipulability_at_home(chain, rows)
+
+    def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+        res = super()._solve(chain, target, q0)
+        if target.pole is None or not res.converged:
+            return res
+        return pole_steps(self, chain, target, res)
 
     def _prepare(self, chain: Chain, rows: int) -> _Work:
         w_home = _manipulability_at_home(chain, rows)

@@ -54,12 +54,19 @@ the previous answer. The restarts and the best pose over them (the lowest
 here, in Python; the answer is written into the robot's scratch data (:meth:`Chain.set_q`), so
 the scratch data is at the returned pose.
 
+An elbow pole (``Target.pole``) is honoured after convergence, without touching the
+kernel's iteration: :func:`pole_steps` turns the elbow toward the pole's plane in the
+null space of the end-effector task (Gauss-Newton steps that keep the end on target),
+where the arm is redundant; a pose it cannot keep within the tolerances is dropped and
+the converged one returned.
+
 State: the solver object holds its options only; one object may serve several threads
 that each have their own robot state.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
@@ -69,8 +76,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import pose_error
+from humanoid_ik.core.rotations import axis_angle_matrix
 from humanoid_ik.core.types import IKResult, Status, Target
-from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.analytic.elbow import POLE_TOL, elbow_frame, pole_angle
+from humanoid_ik.solvers.base import Solver, error_buffers
 from humanoid_ik.solvers.iterate import Best, pose_cost
 from humanoid_ik.solvers.jacobian.loop import OPTION_BOUNDS
 from humanoid_ik.solvers.jacobian.seeds import restart_poses, seed_library
@@ -85,7 +95,7 @@ except ImportError as exc:  # not built (a bare checkout) or built for another M
         "pip install . (pip install -e . in a checkout; it needs a C compiler)"
     ) from exc
 
-__all__ = ["KERNEL_KEY", "LM", "LMOptions", "kernel"]
+__all__ = ["KERNEL_KEY", "LM", "LMOptions", "kernel", "pole_steps"]
 
 
 @dataclass(frozen=True)
@@ -146,6 +156,7 @@ class LM(Solver):
     from the seed library (see the module docstring for the step and the damping)."""
 
     name: ClassVar[str] = "lm"
+    honours_pole: ClassVar[bool] = True
     summary: ClassVar[str] = "Levenberg-Marquardt, error-adaptive damping, ranges as a box QP"
     supports_orientation: ClassVar[bool] = True
     Options: ClassVar[type[SolverOptions]] = LMOptions
@@ -184,6 +195,116 @@ class LM(Solver):
             if ok:
                 chain.set_q(q)  # the scratch data at the returned pose
                 rot = er if quat is not None else None
-                return IKResult(q, True, iterations, ep, rot, Status.CONVERGED, self.name)
+                res = IKResult(q, True, iterations, ep, rot, Status.CONVERGED, self.name)
+                return res if target.pole is None else pole_steps(self, chain, target, res)
             best.offer(q, pose_cost(ep, er))  # er is 0 for a position target
         return self._result(chain, target, best.q, iterations, message=self.gave_up())
+
+
+def _unit_normal(v: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    p = v - float(v @ u) * u
+    r = float(np.linalg.norm(p))
+    return None if r < 1e-9 else p / r
+
+
+def _damped_pinv(J: NDArray[np.float64], lam: float) -> NDArray[np.float64]:
+    return np.asarray(J.T @ np.linalg.inv(J @ J.T + lam * np.eye(J.shape[0])))
+
+
+def pole_steps(
+    solver: Solver, chain: Chain, target: Target, res: IKResult, steps: int = 40
+) -> IKResult:
+    """``res`` (a converged answer) with its elbow turned toward ``target.pole`` in the
+    null space of the end-effector task: the secondary objective of the Jacobian
+    solvers (``lm``, ``dls``).
+
+    Per step: the Gauss-Newton step ``dq = J+ e`` of the end task (3 or 6 rows: it
+    keeps the end on target), plus, in its null space ``N = I - J+ J``, the step that
+    turns the elbow point about the shoulder-wrist line toward the pole's half-plane
+    (at most ``turn`` rad): ``N (J_E N)+ (dE - J_E dq)``, with ``J_E`` the elbow
+    point's Jacobian (the hinges before the elbow); ``q`` is clipped to the ranges. A
+    step that does not bring the elbow nearer halves ``turn`` (from 0.3 rad; at most 4
+    times in a row). Then end-task steps alone bring the end back within the solver's
+    tolerances; a pose they cannot bring back is dropped and ``res`` returned as it was.
+
+    Returns:
+        The answer, its ``details`` with ``pole`` (``honoured``, ``improved``, or why
+        not), ``pole_error`` [rad] and ``pole_error_start`` [rad].
+    """
+    pole = target.pole
+    assert pole is not None
+    frame = elbow_frame(chain)
+    k = frame.elbow
+    rows = 3 if target.quat is None else 6
+    q = res.q.copy()
+    chain.set_q(q)
+    start = err = pole_angle(frame.points(chain), pole)
+    turn, misses = 0.3, 0
+    eye = np.eye(chain.n)
+    for _ in range(steps):
+        if not err > POLE_TOL or k == 0 or misses > 4:  # NaN: a straight arm
+            break
+        S, E, W = frame.points(chain)
+        J, Jp, dq = _end_step(chain, target, rows)
+        u = (W - S) / max(float(np.linalg.norm(W - S)), 1e-12)
+        a, b = _unit_normal(E - S, u), _unit_normal(pole - S, u)
+        if a is None or b is None:
+            break
+        angle = math.copysign(min(err, turn), float(u @ np.cross(a, b)))
+        dE = axis_angle_matrix(u, angle) @ (E - S) - (E - S)
+        anchors, axes = chain.joint_axes()
+        JE = np.zeros((3, chain.n))
+        JE[:, :k] = np.cross(axes[:k], E - anchors[:k]).T
+        N = eye - Jp @ J
+        dq += N @ (_damped_pinv(JE @ N, 1e-8) @ (dE - JE @ dq))
+        q_new = chain.clip(q + dq)
+        chain.set_q(q_new)
+        now = pole_angle(frame.points(chain), pole)
+        if now < err - 1e-12:
+            q, err, misses = q_new, now, 0
+        else:
+            chain.set_q(q)
+            turn, misses = 0.5 * turn, misses + 1
+    ok = _back_on_target(solver, chain, target, q, rows)
+    if ok is not None:
+        q = ok
+        err = pole_angle(frame.points(chain), pole)
+    if ok is None or not err < start:
+        chain.set_q(res.q)
+        why = "honoured" if start <= POLE_TOL else "not honoured: no redundancy to turn the elbow"
+        if math.isnan(start):
+            why = "undefined: a straight arm or a pole on the shoulder-wrist line"
+        return res.with_details(pole=why, pole_error=start, pole_error_start=start)
+    e, qb = error_buffers(chain)
+    ep, er = pose_error(chain.position, chain.rotation, target.position, target.quat, e, qb)
+    rot = None if target.quat is None else er
+    out = IKResult(q, True, res.iterations, ep, rot, Status.CONVERGED, res.solver)
+    why = "honoured" if err <= POLE_TOL else "improved (joint ranges or no redundancy)"
+    return out.with_details(pole=why, pole_error=err, pole_error_start=start)
+
+
+def _end_step(
+    chain: Chain, target: Target, rows: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(J, J+, J+ e)`` of the end task at the chain's current pose."""
+    e, qb = error_buffers(chain)
+    pose_error(chain.position, chain.rotation, target.position, target.quat, e, qb)
+    J = chain.current_jacobian()[:rows]
+    Jp = _damped_pinv(J, 1e-10)
+    return J, Jp, Jp @ e[:rows]
+
+
+def _back_on_target(
+    solver: Solver, chain: Chain, target: Target, q: NDArray[np.float64], rows: int
+) -> NDArray[np.float64] | None:
+    """``q`` brought within the solver's tolerances by end-task steps (at most 10), or
+    ``None`` (the chain is left at the last pose)."""
+    o = solver.options
+    e, qb = error_buffers(chain)
+    for _ in range(11):
+        chain.set_q(q)
+        ep, er = pose_error(chain.position, chain.rotation, target.position, target.quat, e, qb)
+        if ep < o.tol and (target.quat is None or er < o.rot_tol):
+            return q
+        q = chain.clip(q + _end_step(chain, target, rows)[2])
+    return None

@@ -119,6 +119,8 @@ class MinkOptions(SolverOptions):
         position_cost: weight of the hand position error [1/m].
         orientation_cost: weight of the hand orientation error [1/rad].
         gaze_cost: weight of the gaze error.
+        pole_cost: weight of the elbow's distance from its pole's half-plane [1/m]
+            (a hand target's ``pole``; low, so the hands win).
         posture_cost: weight of the pull toward ``home`` [1/rad].
         posture_gain: fraction of the way back to ``home`` asked for per step, in [0, 1]
             (below 1 so its pull in the null space of the hand tasks does not overshoot).
@@ -151,6 +153,7 @@ class MinkOptions(SolverOptions):
     position_cost: float = 1.0
     orientation_cost: float = 0.5
     gaze_cost: float = 1.0
+    pole_cost: float = 0.1
     posture_cost: float = 1e-3
     posture_gain: float = 0.1
     damping: float = 1e-12

@@ -23,6 +23,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.types import EffectorGoal, IKResult, Target
 from humanoid_ik.errors import ChainError, SolverError, choices
+from humanoid_ik.solvers.analytic.elbow import arm_points, pole_angle
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.iterate import Best, pose_cost
 from humanoid_ik.solvers.mink.options import NAME, MinkOptions
@@ -56,6 +57,11 @@ class MinkSolver(Solver):
     (:class:`~humanoid_ik.solvers.mink.tasks.GazeTask`). :meth:`gaze_axis` returns ``a``,
     and the runner measures the gaze error about the same axis.
 
+    An elbow pole on a hand's target (``Target.pole``) adds a low-weight task turning
+    that arm's elbow toward the pole's plane
+    (:class:`~humanoid_ik.solvers.mink.tasks.ElbowTask`, cost ``pole_cost``); the
+    results' ``details`` give the ``pole_error`` reached [rad].
+
     With ``collision_pairs`` (pairs of geom-name groups of the chains' model) the chains
     also keep those geoms apart. None by default, so that the bench's random targets
     (some of which put the hand inside the torso) stay comparable with the other
@@ -86,6 +92,7 @@ class MinkSolver(Solver):
     summary: ClassVar[str] = "differential IK as a QP through mink (daqp), limits as constraints"
     supports_orientation: ClassVar[bool] = True
     solves_effectors: ClassVar[bool] = True
+    honours_pole: ClassVar[bool] = True
     Options: ClassVar[type[SolverOptions]] = MinkOptions
     options: MinkOptions
 
@@ -127,16 +134,12 @@ class MinkSolver(Solver):
             iterations += res.iterations
             r = res[chain.ee_name]
             if res.converged:
-                return self._result(chain, target, r.q, iterations)
+                return _with_pole(self._result(chain, target, r.q, iterations), chain, target)
             if best.offer(r.q, pose_cost(r.position_error, r.orientation_error), k + 1):
                 best_why = res.message
-        return self._result(
-            chain,
-            target,
-            best.q,
-            iterations,
-            message=self._gave_up(iterations, best.start, best_why),
-        )
+        why = self._gave_up(iterations, best.start, best_why)
+        out = self._result(chain, target, best.q, iterations, message=why)
+        return _with_pole(out, chain, target)
 
     def _gave_up(self, iterations: int, best_start: int, why: str) -> str:
         """The message of a solve in which no start converged: the iterations summed over
@@ -244,3 +247,11 @@ class MinkSolver(Solver):
         ik.set_q(qpos)
         res = ik.step(targets, self.options.dt) if self.options.dt > 0 else ik.solve(targets)
         return [res[g.chain.ee_name] for g in goals]
+
+
+def _with_pole(res: IKResult, chain: Chain, target: Target) -> IKResult:
+    """``res`` with the pole's angle to the elbow's plane at its pose (the chain is at it)."""
+    if target.pole is None:
+        return res
+    err = pole_angle(arm_points(chain), target.pole)
+    return res.with_details(pole="secondary task", pole_error=err)

@@ -1,8 +1,10 @@
 """Several hands and a gaze solved jointly by mink, one QP per step, on any model.
 
 Tasks: a ``mink.FrameTask`` per hand with a pose target, a
-:class:`~humanoid_ik.solvers.mink.tasks.PositionTask` per hand with a position target, a
-:class:`~humanoid_ik.solvers.mink.tasks.GazeTask` for the gaze, and a
+:class:`~humanoid_ik.solvers.mink.tasks.PositionTask` per hand with a position target, an
+:class:`~humanoid_ik.solvers.mink.tasks.ElbowTask` (cost ``pole_cost``) per hand whose
+target has an elbow ``pole``, a :class:`~humanoid_ik.solvers.mink.tasks.GazeTask` for the
+gaze, and a
 ``mink.PostureTask`` toward the ``home`` keyframe. The active chains are those of the
 effectors that have a target in the call; every other joint is frozen (the QP of
 :mod:`humanoid_ik.solvers.mink.problem`). All of them are solved jointly in one QP per
@@ -52,6 +54,7 @@ from humanoid_ik.core.models import home_qpos
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import ChainError, NameNotFoundError, SolverError, TargetError, choices
+from humanoid_ik.solvers.analytic.elbow import pole_angle
 from humanoid_ik.solvers.iterate import Stall, pose_cost
 from humanoid_ik.solvers.mink.options import LIMBS, NAME, CollisionPairs, MinkOptions
 from humanoid_ik.solvers.mink.pairs import LimbPairs, limb_collision_pairs
@@ -62,7 +65,7 @@ if TYPE_CHECKING:
 
     from humanoid_ik.solvers.mink.limits import CollisionLimit
     from humanoid_ik.solvers.mink.problem import ActiveKey, Problem
-    from humanoid_ik.solvers.mink.tasks import GazeTask, PositionTask
+    from humanoid_ik.solvers.mink.tasks import ElbowTask, GazeTask, PositionTask
 
 __all__ = ["NAME", "UpperBodyIK"]
 
@@ -177,7 +180,7 @@ class UpperBodyIK:
         """The ``mink.Configuration`` holding the solver's ``qpos`` and kinematics."""
         self._build_tasks(self.options.forward_axis if gaze_axis is None else gaze_axis)
         self._build_limits(pairs)
-        self._problems: dict[ActiveKey, Problem] = {}
+        self._problems: dict[tuple[ActiveKey, tuple[str, ...]], Problem] = {}
         self._err_buffers = (np.empty(6), np.empty((2, 4)))  # error vector, quaternion scratch
         self._step = QPStep(self.configuration, self.options, self._collision)
         self.reset()
@@ -225,6 +228,8 @@ class UpperBodyIK:
             )
             for c in self._hand_chains
         }
+        self._elbow_tasks: dict[str, ElbowTask] = {}
+        """Per hand, built on the first target with a pole (an arm chain's elbow)."""
         self._gaze_task: GazeTask | None = None
         if self._gaze_chain is not None:
             g = self._gaze_chain
@@ -281,9 +286,20 @@ class UpperBodyIK:
             q[c.qpos_adr] = c.clip(q[c.qpos_adr])
         return q
 
-    def _problem(self, key: ActiveKey) -> Problem:
-        """The problem of the effectors in ``key``, built on first use and kept."""
-        prob = self._problems.get(key)
+    def _elbow_task(self, name: str) -> ElbowTask:
+        """The hand's :class:`~humanoid_ik.solvers.mink.tasks.ElbowTask` (built once)."""
+        task = self._elbow_tasks.get(name)
+        if task is None:
+            from humanoid_ik.solvers.mink.tasks import ElbowTask
+
+            task = ElbowTask(self.model, self.chains[name], cost=self.options.pole_cost)
+            self._elbow_tasks[name] = task
+        return task
+
+    def _problem(self, key: ActiveKey, poles: tuple[str, ...] = ()) -> Problem:
+        """The problem of the effectors in ``key`` (with the elbow tasks of the hands in
+        ``poles``), built on first use and kept."""
+        prob = self._problems.get((key, poles))
         if prob is not None:
             return prob
         from humanoid_ik.solvers.mink.problem import build_problem
@@ -296,13 +312,14 @@ class UpperBodyIK:
                 tasks.append(self._gaze_task)
             else:
                 tasks.append(self._pose_tasks[name] if pose else self._position_tasks[name])
+        tasks += [self._elbow_task(name) for name in poles]
         tasks.append(self._posture)
         ids = sorted({int(j) for n, _ in key for j in self.chains[n].joint_ids})
         shared: list[mink.Limit] = [self._velocity]
         if self._collision is not None:
             shared.append(self._collision)
         prob = build_problem(self.model, key, ids, tasks, shared, self.options.range_gain)
-        self._problems[key] = prob
+        self._problems[(key, poles)] = prob
         return prob
 
     def prepare(self) -> None:
@@ -397,6 +414,8 @@ class UpperBodyIK:
                 self._pose_tasks[name].transform_target_to_world = self._se3(wxyz_xyz)
             else:
                 self._position_tasks[name].set_target(tgt.position)
+            if tgt.pole is not None and name != gaze_name:
+                self._elbow_task(name).set_pole(tgt.pole)
             parsed[name] = tgt
         key = tuple((n, parsed[n].is_pose) for n in self.chains if n in parsed)
         return key, parsed
@@ -442,6 +461,12 @@ class UpperBodyIK:
                 solver=NAME,
                 message="" if ok else message,
             )
+        for name, r in per.items():
+            pole = parsed[name].pole
+            if pole is not None and name in self._elbow_tasks:
+                task = self._elbow_tasks[name]
+                pts = task.frame.points(task.chain, self.configuration.data)
+                per[name] = r.with_details(pole="secondary task", pole_error=pole_angle(pts, pole))
         ok = all(r.converged for r in per.values())
         if status is None:
             status = Status.CONVERGED if ok else Status.MAX_ITERATIONS
@@ -481,7 +506,7 @@ class UpperBodyIK:
         order = [n for n, _ in key]
         if not order:
             return self._result(parsed, order, 0)
-        found = self._step(self._problem(key), float(dt))
+        found = self._step(self._problem(key, _poles(parsed, order)), float(dt))
         msg = "" if found else "the QP solver found no solution; the step was skipped"
         return self._result(parsed, order, 1, message=msg)
 
@@ -504,7 +529,7 @@ class UpperBodyIK:
         order = [n for n, _ in key]
         if not order:
             return self._result(parsed, order, 0)
-        prob = self._problem(key)
+        prob = self._problem(key, _poles(parsed, order))
         dt = o.max_step / o.max_velocity
         stalled = Stall(o.stall_window)
         message = f"no convergence in {o.max_iterations} iterations"
@@ -527,3 +552,8 @@ class UpperBodyIK:
                 break
             it += 1
         return self._result(parsed, order, it, Status.MAX_ITERATIONS, message)
+
+
+def _poles(parsed: Mapping[str, Target], order: Sequence[str]) -> tuple[str, ...]:
+    """The effectors in ``order`` whose target has an elbow pole."""
+    return tuple(n for n in order if parsed[n].pole is not None)

@@ -15,8 +15,11 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.analytic.closed_form.batch import solve_chunk
-from humanoid_ik.solvers.analytic.closed_form.geometry import arm_cache, arm_context
+from humanoid_ik.solvers.analytic.closed_form.geometry import ArmContext, arm_cache, arm_context
+from humanoid_ik.solvers.analytic.closed_form.numeric import FLOATS
 from humanoid_ik.solvers.analytic.closed_form.single import Fallback, solve_one
+from humanoid_ik.solvers.analytic.closed_form.swivel import swivel_frame, wrist_target
+from humanoid_ik.solvers.analytic.elbow import POLE_TOL, arm_points, elbow_frame, pole_search
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.options import SolverOptions
 
@@ -62,6 +65,15 @@ class ClosedForm(Solver):
     Position targets: the wrist keeps its starting angles and the shoulder and elbow
     place the end effector (the hand rides along as part of the forearm).
 
+    An elbow pole (``Target.pole``) sets the swivel: the elbow in the plane of the
+    shoulder, the wrist and the pole, on the pole's side (for a pose target the pole's
+    own angle about the shoulder-wrist line; for a position target, whose wrist is off
+    the swivel's axis, that angle corrected once by :func:`~..elbow.pole_turn`). Where
+    the ranges forbid that swivel the nearest feasible one is taken. ``details`` give
+    ``pole_swivel`` (wanted), ``swivel`` (taken), ``pole_error`` [rad]
+    (:func:`~..elbow.pole_angle` at the answer) and ``pole``: ``honoured``, or
+    ``nearest feasible swivel (joint ranges)``. A pole overrides the ``swivel`` option.
+
     A target beyond the shell the wrist point can reach, or one for which no swivel
     keeps every joint in range, is ``unreachable``: the arm is stretched (or folded)
     toward it, at the least violating branch moved inside the ranges.
@@ -71,6 +83,7 @@ class ClosedForm(Solver):
     """
 
     name: ClassVar[str] = "closed_form"
+    honours_pole: ClassVar[bool] = True
     summary: ClassVar[str] = "closed form: law of cosines + elbow swivel, exact joint ranges"
     supports_orientation: ClassVar[bool] = True
     Options: ClassVar[type[SolverOptions]] = ClosedFormOptions
@@ -90,15 +103,77 @@ class ClosedForm(Solver):
         return arm_cache(chain).reason
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+        if target.pole is not None:
+            return self._solve_pole(chain, target, q0, target.pole)
+        return self._at(chain, target, q0, self.options.swivel, self._psi)[0]
+
+    def _solve_pole(
+        self, chain: Chain, target: Target, q0: NDArray[np.float64], pole: NDArray[np.float64]
+    ) -> IKResult:
+        """The answer at the swivel that honours ``pole`` (see the class docstring)."""
+        ctx = arm_context(chain)
+        S = ctx.S
+        if target.rotation is not None:
+            t = wrist_target(ctx, target.position.tolist(), target.rotation.tolist())
+        else:
+            t = (
+                float(target.position[0]) - S[0],
+                float(target.position[1]) - S[1],
+                float(target.position[2]) - S[2],
+            )
+        n, r, k = swivel_frame(FLOATS, ctx, t, ctx.rest)
+        p = pole - np.array(S)
+        x, y = float(p @ r), float(p @ k)
+        if math.hypot(x, y) < 1e-12 * max(1.0, float(np.linalg.norm(p))):
+            res = self._at(chain, target, q0, self.options.swivel, self._psi)[0]
+            return res.with_details(pole="undefined: the pole lies on the shoulder-wrist line")
+        frame = elbow_frame(chain)
+        (res, got), want, err = pole_search(
+            lambda w: self._at(chain, target, q0, w, np.array([w])),
+            lambda rg: frame.points(chain),  # _result left the chain at the answer
+            (n, r, k),
+            pole,
+            math.atan2(y, x),
+        )
+        pts = arm_points(chain, res.q)  # the chain at the answer
+        if got is None:  # the batch driver: the swivel as the elbow shows it
+            e = pts.elbow - pts.shoulder
+            got = math.atan2(float(e @ k), float(e @ r))
+        how = "honoured" if err <= POLE_TOL else "nearest feasible swivel (joint ranges)"
+        if err > POLE_TOL and res.status is Status.UNREACHABLE:
+            how = "not honoured: the target is unreachable"
+        return res.with_details(pole=how, pole_error=err, pole_swivel=want, swivel=got)
+
+    def _at(
+        self,
+        chain: Chain,
+        target: Target,
+        q0: NDArray[np.float64],
+        swivel: float | None,
+        psi: NDArray[np.float64] | None,
+    ) -> tuple[IKResult, float | None]:
+        """The answer at the feasible swivel nearest ``swivel`` (``psi``: the same as an
+        array, for the batch driver), and the swivel taken (``None`` from the batch)."""
         ctx = arm_context(chain)
         rot = None if target.rotation is None else target.rotation.tolist()
         try:
-            q, _ = solve_one(ctx, target.position.tolist(), rot, q0.tolist(), self.options.swivel)
-            return self._result(chain, target, np.array(q), 1)
+            q, got = solve_one(ctx, target.position.tolist(), rot, q0.tolist(), swivel)
+            return self._result(chain, target, np.array(q), 1), got
         except Fallback:
             pass
+        return self._batch(chain, ctx, target, q0, psi), None
+
+    def _batch(
+        self,
+        chain: Chain,
+        ctx: ArmContext,
+        target: Target,
+        q0: NDArray[np.float64],
+        psi: NDArray[np.float64] | None,
+    ) -> IKResult:
+        """What the one-target path leaves: the batch driver on one target."""
         R = None if target.rotation is None else target.rotation[None]
-        res = solve_chunk(ctx, target.position[None], R, q0[None], self._psi)
+        res = solve_chunk(ctx, target.position[None], R, q0[None], psi)
         q1 = res.q[0]
         if res.miss[0] > 0.0:
             where = "inside the inner hole of" if res.inner[0] else "beyond"

@@ -71,6 +71,7 @@ __all__ = [
     "planar",
     "two_hinge",
     "three_hinge",
+    "twist_frame",
     "between",
     "Polar",
     "AngleAxis",
@@ -419,6 +420,15 @@ def _decomposing(ctx: LimbContext, ksh: tuple, cp: float, sp: float) -> tuple | 
     return None
 
 
+def twist_frame(ctx: LimbContext, limb: Limb, t: Vec) -> tuple[Vec, Vec, Vec]:
+    """``(n, r, k)``: the unit shoulder-target line ``n``, gravity normal to it ``r``
+    (the twist's zero) and ``k = n x r``; a twist ``psi`` puts the elbow at the angle
+    ``psi`` from ``r`` about ``n``."""
+    n = unit(FLOATS, t, lambda: unit(FLOATS, hand(limb, 0.0), X_AXIS))
+    r = perp_unit(FLOATS, ctx.down, n, lambda: (X_AXIS, Y_AXIS))
+    return n, r, cross(n, r)
+
+
 def three_hinge(
     ctx: LimbContext,
     limb: Limb,
@@ -427,18 +437,21 @@ def three_hinge(
     elbows: list,
     method: str,
     every_branch: bool = False,
+    prefer: float | None = None,
 ) -> tuple[list[Candidate], dict[str, Any]]:
     """Three-hinge shoulder: per elbow branch, the feasible twist nearest the preferred
     one (see the module's docstring) and its decomposition(s).
 
-    The preferred twist: ``nearest`` keeps the elbow closest to the start's elbow
-    (``psi = atan2(e . k, e . r)``, ``e = R_sh(q0) (E - S)``); ``polar`` and
-    ``angle_axis`` take the worksheet method's rotation. With no feasible twist the
-    preferred one is decomposed anyway (the candidates are outside the ranges).
+    The preferred twist: ``prefer`` when given (an elbow pole's); else ``nearest``
+    keeps the elbow closest to the start's elbow (``psi = atan2(e . k, e . r)``,
+    ``e = R_sh(q0) (E - S)``); ``polar`` and ``angle_axis`` take the worksheet
+    method's rotation. With no feasible twist the preferred one is decomposed anyway
+    (the candidates are outside the ranges).
 
     Args:
         every_branch: both decompositions at the kept twist (else the one inside
             closest to the start).
+        prefer: the preferred twist [rad], or ``None``.
 
     Returns:
         The candidates, and per elbow label ``twist_preferred`` [rad] and ``hands``
@@ -447,11 +460,9 @@ def three_hinge(
     tri = ctx.tri
     assert tri is not None
     ys = tri.y_rows
-    n = unit(FLOATS, t, lambda: unit(FLOATS, hand(limb, 0.0), X_AXIS))
-    r = perp_unit(FLOATS, ctx.down, n, lambda: (X_AXIS, Y_AXIS))
-    k = cross(n, r)
+    n, r, k = twist_frame(ctx, limb, t)
     nrk = (*proj(ys, n), *proj(ys, r), *proj(ys, k))
-    e0 = ctx.start_elbow(q0) if method == "nearest" else None
+    e0 = ctx.start_elbow(q0) if method == "nearest" and prefer is None else None
     out: list[Candidate] = []
     preferred: dict[str, float] = {}
     hands: dict[str, Vec] = {}
@@ -463,7 +474,9 @@ def three_hinge(
         cv = cross(a, b)
         assert ctx.tri is not None
         ksh = triple_coefficients(ctx.tri.z_rows, nrk, a, b, cv)
-        if e0 is not None:
+        if prefer is not None:
+            cp, sp = math.cos(prefer), math.sin(prefer)
+        elif e0 is not None:
             cp, sp = _direction(dot(e0, r), dot(e0, k))
         else:
             cp, sp = _method_twist(method, v, t, b, r, k)

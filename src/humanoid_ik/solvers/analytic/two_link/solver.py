@@ -15,6 +15,13 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.analytic.closed_form.numeric import Vec
+from humanoid_ik.solvers.analytic.elbow import (
+    POLE_TOL,
+    arm_points,
+    elbow_frame,
+    pole_angle,
+    pole_search,
+)
 from humanoid_ik.solvers.analytic.two_link.geometry import (
     Limb,
     LimbContext,
@@ -31,6 +38,7 @@ from humanoid_ik.solvers.analytic.two_link.shoulders import (
     planar,
     polar_method,
     three_hinge,
+    twist_frame,
     two_hinge,
 )
 from humanoid_ik.solvers.base import Solver, error_buffers
@@ -119,6 +127,16 @@ class TwoLink(Solver):
     then stretches (or folds) toward the target on the least violating branch, moved
     inside the ranges.
 
+    An elbow pole (``Target.pole``) chooses among them: a three-hinge shoulder's twist
+    is the pole's angle about the shoulder-target line (corrected once by
+    :func:`~..elbow.pole_turn` when a wrist puts the wrist point off that line; the
+    nearest feasible twist where the ranges forbid it), and among the branches
+    (elbow and shoulder, within the ``branch`` and ``shoulder`` options) the one inside
+    the ranges whose elbow is nearest the pole's plane is kept (ties: nearest the
+    start). ``details`` then add ``pole`` (``honoured``, or why not), ``pole_error``
+    [rad] (:func:`~..elbow.pole_angle`) and, for a three-hinge shoulder,
+    ``pole_twist``. Without a pole nothing changes.
+
     The result's ``details`` hold the intermediate values (``docs/two_link.md``).
 
     Caches: the chain keeps the structure and the geometry
@@ -128,6 +146,7 @@ class TwoLink(Solver):
     """
 
     name: ClassVar[str] = "two_link"
+    honours_pole: ClassVar[bool] = True
     summary: ClassVar[str] = "analytic: law of cosines, planar/2-/3-hinge shoulder in closed form"
     Options: ClassVar[type[SolverOptions]] = TwoLinkOptions
     options: TwoLinkOptions
@@ -224,6 +243,7 @@ class TwoLink(Solver):
         q0: list[float],
         elbows: list,
         every_branch: bool = False,
+        prefer: float | None = None,
     ) -> tuple[list[Candidate], dict[str, Any]]:
         if ctx.k == 1:
             return planar(ctx, limb, reach.t, q0, elbows)
@@ -231,9 +251,47 @@ class TwoLink(Solver):
             return two_hinge(ctx, limb, reach.t, q0, elbows)
         # a chosen shoulder branch needs both decompositions to choose from
         every = every_branch or self.options.shoulder != "auto"
-        return three_hinge(ctx, limb, reach.t, q0, elbows, self.options.method, every)
+        return three_hinge(ctx, limb, reach.t, q0, elbows, self.options.method, every, prefer)
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+        pole = target.pole
+        if pole is None:
+            return self._at(chain, target, q0, None, None)
+        ctx = limb_context(chain)
+        if ctx.k != 3:  # no twist: the pole picks the branch
+            res = self._at(chain, target, q0, pole, None)
+            return _with_pole(chain, res, pole)
+        q0l = q0.tolist()
+        limb = ctx.limb(chain, tuple(q0l[4:]))
+        t = _reach(ctx, limb, target.position.tolist()).t
+        n, r, k = twist_frame(ctx, limb, t)
+        p = pole - np.array(limb.S)
+        x, y = float(p @ r), float(p @ k)
+        if math.hypot(x, y) < 1e-12 * max(1.0, float(np.linalg.norm(p))):
+            res = self._at(chain, target, q0, None, None)
+            return res.with_details(pole="undefined: the pole lies on the shoulder-target line")
+        frame = elbow_frame(chain)
+        res, want, _ = pole_search(
+            lambda w: self._at(chain, target, q0, pole, w),
+            lambda rs: frame.points(chain),  # _at left the chain at the answer
+            (n, r, k),
+            pole,
+            math.atan2(y, x),
+            tries=4 if ctx.k + 1 < chain.n else 1,  # no wrist: the hand is on the axis
+        )
+        return _with_pole(chain, res, pole, pole_twist=want)
+
+    def _at(
+        self,
+        chain: Chain,
+        target: Target,
+        q0: NDArray[np.float64],
+        pole: NDArray[np.float64] | None,
+        prefer: float | None,
+    ) -> IKResult:
+        """The answer (see the class docstring): with ``pole``, the branches ordered by
+        the pole's angle to the elbow's plane; ``prefer``, a three-hinge shoulder's
+        preferred twist [rad]."""
         ctx = limb_context(chain)
         k, o = ctx.k, self.options
         q0l = q0.tolist()
@@ -250,10 +308,10 @@ class TwoLink(Solver):
             (first if inside(e[0], lo, hi) else later).append(e)
         if not first:
             first, later = later, []
-        found, info = self._candidates(ctx, limb, reach, q0l, first)
+        found, info = self._candidates(ctx, limb, reach, q0l, first, prefer=prefer)
         cands = self._chosen_shoulder(found, k)
         if later and not any(c.inside for c in cands):
-            more, more_info = self._candidates(ctx, limb, reach, q0l, later)
+            more, more_info = self._candidates(ctx, limb, reach, q0l, later, prefer=prefer)
             found += more
             cands += self._chosen_shoulder(more, k)
             for key, value in more_info.items():
@@ -264,7 +322,8 @@ class TwoLink(Solver):
         if not cands:
             # a three-hinge shoulder whose axes reach no rotation pointing the limb there
             cands = [Candidate(tuple(q0l[: k + 1]), True, 0.0, "both", "both", None, math.inf)]
-        best = cands[0] if len(cands) == 1 else min(cands, key=_order(q0l))
+        order = _order(q0l) if pole is None else _pole_order(chain, q0l, pole)
+        best = cands[0] if len(cands) == 1 else min(cands, key=order)
         qs = list(best.q)
         if not best.inside:  # the least violating branch, moved inside the ranges (or the
             # other shoulder branch's answer when the chosen one has none)
@@ -367,6 +426,32 @@ def _order(q0: list[float]) -> Callable[[Candidate], tuple]:
     """The preference among candidates: inside the ranges, then the smallest band gap,
     then the least range violation, then nearest ``q0``."""
     return lambda c: (not c.inside, c.gap, c.violation, _distance(c, q0))
+
+
+def _pole_order(
+    chain: Chain, q0: list[float], pole: NDArray[np.float64]
+) -> Callable[[Candidate], tuple]:
+    """:func:`_order` with the pole's angle to the candidate's elbow plane (in steps of
+    1e-6 rad, so that equal planes tie) before the distance to the start."""
+
+    def key(c: Candidate) -> tuple:
+        q = list(c.q) + q0[len(c.q) :]
+        a = pole_angle(arm_points(chain, q), pole)
+        return (not c.inside, c.gap, c.violation, round(0.0 if math.isnan(a) else a * 1e6))
+
+    return lambda c: (*key(c), _distance(c, q0))
+
+
+def _with_pole(chain: Chain, res: IKResult, pole: NDArray[np.float64], **extra: Any) -> IKResult:
+    """``res`` with the pole's figures in its details (the chain left at ``res.q``)."""
+    err = pole_angle(arm_points(chain, res.q), pole)
+    if err <= POLE_TOL:
+        how = "honoured"
+    elif res.status is Status.UNREACHABLE:
+        how = "not honoured: the target is unreachable"
+    else:
+        how = "nearest feasible twist (joint ranges)" if extra else "nearest branch (no twist)"
+    return res.with_details(pole=how, pole_error=err, **extra)
 
 
 def _distance(c: Candidate, q0: list[float]) -> float:
