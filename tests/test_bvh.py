@@ -22,11 +22,13 @@ from humanoid_ik.config.scene import load_scene
 from humanoid_ik.core.models import load_model
 from humanoid_ik.core.robot import joint_name
 from humanoid_ik.errors import TrajectoryFileError
+from humanoid_ik.experiments.retarget import retarget
+from humanoid_ik.motion.human import human_bvh
 from humanoid_ik.outputs.bvh import bvh_text
 from humanoid_ik.outputs.keyframes import keyframes_xml
 from humanoid_ik.outputs.record import record_scene
 from humanoid_ik.outputs.trajectory import load_trajectory, write_trajectory
-from humanoid_ik.run.trajectory import Trajectory, qpos_names
+from humanoid_ik.run.trajectory import EffectorTrack, Trajectory, qpos_names
 from tests.robots import robot_file
 
 ENDS = ("right_palm_site", "left_palm_site", "gaze_site")
@@ -337,15 +339,16 @@ target = "ball"
 
 
 def test_g1_exports_its_joint_tree(g1_run):
-    """G1: the BVH has the root (the pelvis) and one joint per hinge body, 30 in all; the
-    IMU, camera and lidar links (fixed, rotated) are folded in; bvhio's FK puts every
+    """G1: the BVH has the root (the pelvis), one joint per hinge body and the run's end
+    effector (the fixed ``left_rubber_hand``, without channels), 31 in all; the IMU,
+    camera and lidar links (fixed, rotated) are folded in; bvhio's FK puts every
     joint where MuJoCo has its anchor, in every frame; the elbow's channels hold the
     elbow's angle (its axis is 2e-4 off the world's y at qpos0: three channels)."""
     traj, model, path = g1_run
     root = bvhio.readAsHierarchy(str(path))
     joints = {j.Name: j for j, _, _ in root.layout()}
     hinged = [mujoco.mj_id2name(model, 1, b) for b in range(model.nbody) if model.body_jntnum[b]]
-    assert set(joints) == {"pelvis", *hinged} and len(joints) == 30
+    assert set(joints) == {"pelvis", *hinged, "left_rubber_hand"} and len(joints) == 31
     assert not {"imu_in_torso", "d435_link", "mid360_link", "logo_link"} & set(joints)
     data = mujoco.MjData(model)
     worst, moved = 0.0, []
@@ -366,6 +369,95 @@ def test_g1_exports_its_joint_tree(g1_run):
     assert worst < 1e-6, worst
     assert np.ptp(np.array(moved), axis=0).max() > 0.01  # the arm moved
     assert np.ptp(elbow) > 0.01
+
+
+@pytest.fixture(scope="module")
+def wave_clip(tmp_path_factory):
+    """The procedural human's wave, 1 s at 120 Hz (CMU names, Y up, cm), as a file."""
+    path = tmp_path_factory.mktemp("clip") / "wave.bvh"
+    path.write_text(human_bvh("wave", seconds=1.0))
+    return path
+
+
+@pytest.mark.parametrize("robot", ["humanoid", "g1"])
+def test_retargeted_bvh_matches_mujoco_hands(wave_clip, tmp_path, robot):
+    """A retargeted wave (60 frames: the right arm starts rising) exports for the bundled
+    humanoid (palm sites, the gaze site) and G1 (hands that are fixed bodies,
+    ``left_rubber_hand``, folded into the wrists: written as joints without channels);
+    bvhio's FK of the parsed file puts every end-effector frame where MuJoCo has it, in
+    every frame, within 1e-6 m, and the hands moved."""
+    model_path = None if robot == "humanoid" else robot_file("g1")
+    traj = retarget(wave_clip, model_path, None, frames=60).trajectory
+    model = load_model(model_path)
+    path = tmp_path / "robot.bvh"
+    path.write_text(bvh_text(traj, model))
+    assert bvhio.readAsBvh(str(path)).FrameCount == 60
+    root = bvhio.readAsHierarchy(str(path))
+    joints = {j.Name: j for j, _, _ in root.layout()}
+    ends = [e.site for e in traj.effectors]
+    want = {"humanoid": ["left_palm_site", "right_palm_site", "gaze_site"]}
+    assert ends == want.get(robot, ["left_rubber_hand", "right_rubber_hand"])
+    assert set(ends) <= set(joints)
+    data = mujoco.MjData(model)
+    worst, moved = 0.0, {e: [] for e in ends}
+    for f in range(traj.n_frames):
+        root.loadPose(f)
+        data.qpos[:] = traj.qpos[f]
+        mujoco.mj_kinematics(model, data)
+        for e in traj.effectors:
+            mj = data.site(e.site).xpos if e.kind == "site" else data.body(e.site).xpos
+            got = from_bvh_axes(joints[e.site].PositionWorld, 1.0)
+            worst = max(worst, float(np.abs(got - mj).max()))
+            moved[e.site].append(got)
+            if e.task == "reach":  # the trajectory's own record of the hand agrees
+                np.testing.assert_allclose(mj, e.achieved[f], atol=1e-12)
+    assert worst < 1e-6, worst
+    hand = "right_palm_site" if robot == "humanoid" else "right_rubber_hand"
+    assert np.ptp(np.array(moved[hand]), axis=0).max() > 0.02  # the waving hand rose
+
+
+def test_a_jointed_end_body_off_its_anchor_is_written_at_its_origin(tmp_path):
+    """An effector on a body whose hinge is away from the body's origin: the origin is a
+    ``<body>_origin`` joint without channels, where MuJoCo has the body (1e-5 m)."""
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body name='arm' pos='0 0 1'><joint name='a' pos='0 0 -0.1' "
+        "axis='0 1 0'/><geom size='.05'/></body></worldbody></mujoco>"
+    )
+    qpos = np.linspace(-1.5, 1.5, 7)[:, None]
+    traj = dataclasses.replace(motion(model, qpos), effectors=(_track("arm", 7),))
+    path = tmp_path / "arm.bvh"
+    path.write_text(bvh_text(traj, model))
+    root = bvhio.readAsHierarchy(str(path))
+    joints = {j.Name: j for j, _, _ in root.layout()}
+    assert "arm_origin" in joints
+    data = mujoco.MjData(model)
+    for f in range(7):
+        root.loadPose(f)
+        data.qpos[:] = qpos[f]
+        mujoco.mj_kinematics(model, data)
+        got = from_bvh_axes(joints["arm_origin"].PositionWorld, 1.0)
+        assert np.abs(got - data.body("arm").xpos).max() < 1e-5
+
+
+def _track(body: str, frames: int) -> EffectorTrack:
+    """A reach effector on ``body`` over ``frames`` frames (the values do not matter)."""
+    z = np.zeros(frames)
+    return EffectorTrack(
+        site=body,
+        target_name="t",
+        task="reach",
+        solver="dls",
+        joints=("a",),
+        q=z[:, None],
+        target=np.zeros((frames, 3)),
+        target_quat=None,
+        achieved=np.zeros((frames, 3)),
+        position_error=z,
+        on_target=np.ones(frames, dtype=bool),
+        reachable=np.ones(frames, dtype=bool),
+        status=("converged",) * frames,
+        kind="body",
+    )
 
 
 def test_bvh_units_are_m_or_cm(showcase):

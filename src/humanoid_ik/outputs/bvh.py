@@ -6,9 +6,12 @@ body with hinge (or ball) joints is a BVH ``JOINT`` placed at its joints' anchor
 bodies without joints (a sensor, camera or tool link on a fixed joint) are folded into
 the jointed body above them; every site away from its ``JOINT`` (the palms, the gaze
 point, the torso site) is a ``JOINT`` without channels, so tools show the hands and the
-head. Offsets are the model's lengths. A slide joint that stays at its ``qpos0`` value in
-every frame of the trajectory (a gripper's fingers the run never moved) is held fixed,
-its body folded the same way.
+head, and so is each end-effector frame of the trajectory (a site; a body at its
+origin: a folded one such as G1's ``left_rubber_hand`` under its own name, a jointed one
+whose origin is off its joints' anchor as ``<body>_origin``), so the hands a run moved
+are in the file whatever the model calls them. Offsets are the model's lengths. A slide
+joint that stays at its ``qpos0`` value in every frame of the trajectory (a gripper's
+fingers the run never moved) is held fixed, its body folded the same way.
 
 Frames: every ``JOINT``'s frame is aligned with the world at the model's reference pose
 ``qpos0`` (``qpos = 0`` for every hinge of a URDF), whatever rest rotation its body has,
@@ -184,9 +187,38 @@ def _free_joint(model: mujoco.MjModel, body: int) -> int | None:
     return j if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE else None
 
 
-def _skeleton(model: mujoco.MjModel, rest: mujoco.MjData, held: set[int]) -> _Node:
+@dataclass(frozen=True)
+class _Ends:
+    """The end-effector frames a trajectory names, each written as a ``JOINT`` without
+    channels: ``sites`` (ids, even one that sits on its ``JOINT``) and ``bodies`` (ids:
+    a body folded into the one above, or a jointed body whose origin is not at its
+    joints' anchor, as ``<body>_origin``)."""
+
+    sites: frozenset[int] = frozenset()
+    bodies: frozenset[int] = frozenset()
+
+
+def _ends(model: mujoco.MjModel, traj: Trajectory) -> _Ends:
+    """The end-effector frames of ``traj``'s effectors on ``model``: a site of that name
+    (a file from before effectors kept their kind says ``site`` for a body too), else a
+    body of that name."""
+    sites, bodies = set(), set()
+    for e in traj.effectors:
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, e.site)
+        if e.kind == "site" and sid >= 0:
+            sites.add(sid)
+            continue
+        bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, e.site)
+        if bid > 0:
+            bodies.add(bid)
+    return _Ends(frozenset(sites), frozenset(bodies))
+
+
+def _skeleton(
+    model: mujoco.MjModel, rest: mujoco.MjData, held: set[int], ends: _Ends = _Ends()
+) -> _Node:
     """The BVH skeleton of ``model`` (``rest``: its kinematics at ``qpos0``; ``held``: the
-    joints held fixed).
+    joints held fixed; ``ends``: the end-effector frames written).
 
     Raises:
         TrajectoryFileError: the model has no joint, or one that BVH cannot hold.
@@ -197,7 +229,7 @@ def _skeleton(model: mujoco.MjModel, rest: mujoco.MjData, held: set[int]) -> _No
         np.array(rest.xpos[root_body], dtype=np.float64),
         body=root_body,
     )
-    _grow(model, rest, held, root_body, root, root.offset)
+    _grow(model, rest, held, ends, root_body, root, root.offset)
     return root
 
 
@@ -205,16 +237,24 @@ def _grow(
     model: mujoco.MjModel,
     rest: mujoco.MjData,
     held: set[int],
+    ends: _Ends,
     body: int,
     node: _Node,
     at: NDArray[np.float64],
 ) -> None:
     """Add ``body``'s sites and child bodies under ``node``, which stands at ``at``
     (world, ``qpos0``) and which ``body`` is folded into unless it is ``node``'s."""
+    if body in ends.bodies:  # an end-effector body: its frame's origin
+        name = _name(model, mujoco.mjtObj.mjOBJ_BODY, body, "body")
+        offset = rest.xpos[body] - at
+        if body != node.body:  # folded into the node
+            node.children.append(_Node(name, offset))
+        elif np.linalg.norm(offset) > 1e-12:  # away from its joints' anchor
+            node.children.append(_Node(f"{name}_origin", offset))
     for s in range(model.nsite):
         if model.site_bodyid[s] == body:
             offset = rest.site_xpos[s] - at
-            if np.linalg.norm(offset) > 1e-12:
+            if np.linalg.norm(offset) > 1e-12 or s in ends.sites:
                 name = _name(model, mujoco.mjtObj.mjOBJ_SITE, s, "site")
                 node.children.append(_Node(name, offset))
     for child in range(1, model.nbody):
@@ -222,13 +262,13 @@ def _grow(
             continue
         joints = _joints(model, child, held)
         if not joints:
-            _grow(model, rest, held, child, node, at)
+            _grow(model, rest, held, ends, child, node, at)
             continue
         channels, euler, anchor = _channels(model, rest, joints)
         name = _name(model, mujoco.mjtObj.mjOBJ_BODY, child, "body")
         sub = _Node(name, anchor - at, child, channels, euler)
         node.children.append(sub)
-        _grow(model, rest, held, child, sub, anchor)
+        _grow(model, rest, held, ends, child, sub, anchor)
 
 
 def _hierarchy(node: _Node, scale: float, depth: int, lines: list[str]) -> None:
@@ -344,7 +384,7 @@ def bvh_text(traj: Trajectory, model: mujoco.MjModel, units: str = "m") -> str:
     scale = BVH_UNITS[units]
     rest = mujoco.MjData(model)
     mujoco.mj_kinematics(model, rest)
-    root = _skeleton(model, rest, _held(model, traj.qpos))
+    root = _skeleton(model, rest, _held(model, traj.qpos), _ends(model, traj))
     lines = ["HIERARCHY"]
     _hierarchy(root, scale, 0, lines)
     lines += ["MOTION", f"Frames: {traj.n_frames}", f"Frame Time: {1.0 / traj.fps:.10f}"]
