@@ -53,9 +53,12 @@ from humanoid_ik.run.runner import FrameSink, SceneRunner
 from humanoid_ik.run.trajectory import Trajectory
 
 __all__ = [
-    "RenderOutputs",
     "FilmOutputs",
+    "RenderOutputs",
+    "Renderer",
+    "check_buffer",
     "check_output_dir",
+    "film_trajectory",
     "render_scene",
     "replay_trajectory",
 ]
@@ -130,6 +133,11 @@ class _Filmed:
     notes: tuple[str, ...]
 
 
+Renderer = Callable[[mujoco.MjModel, int, int, str, int, float], FrameRenderer]
+"""What makes a film's frame renderer: ``FrameRenderer`` or a subclass (``(model,
+width, height, camera, trail, marker)``; ``functools.partial`` binds more)."""
+
+
 def _film(
     model: mujoco.MjModel,
     rs: RenderSpec,
@@ -141,10 +149,12 @@ def _film(
     quats: Quats,
     run: Callable[[FrameSink], object],
     marker: float,
+    renderer: Renderer = FrameRenderer,
 ) -> tuple[_Filmed, Backend]:
     """Film ``n`` frames at ``fps``: ``run(film)`` runs the frame loop with the film as a
     sink; then the video is finished and the stills and the GIF written. ``marker``:
-    the target markers' radius [m] (:func:`marker_radius`).
+    the target markers' radius [m] (:func:`marker_radius`); ``renderer`` makes the frame
+    renderer (a subclass draws more in each frame).
 
     A failed run leaves no video under its final name (its temporary file is removed)
     and the exception propagates; Ctrl-C (handled by the frame loop) keeps the frames so
@@ -154,7 +164,7 @@ def _film(
     stills = Stills(snaps, sheet_indices(rs.contact_sheet, n))
     gif = GifFrames(fps) if rs.gif else None
     trail = round(rs.trail * fps)
-    with FrameRenderer(model, rs.width, rs.height, rs.camera, trail, marker) as fr:
+    with renderer(model, rs.width, rs.height, rs.camera, trail, marker) as fr:
         backend = select_backend()
         mp4 = _named(folder, name, ".mp4")
         writer = VideoWriter(mp4, rs.width, rs.height, fps) if video else None
@@ -338,45 +348,93 @@ def replay_trajectory(
         raise TrajectoryFileError(f"trajectory {exc}") from None
     player = TrajectoryPlayer(trajectory, model, digest)
     rs = trajectory.render if render is None else render
+    check_buffer(model, rs)
+    folder = check_output_dir(out_dir)
+    with staged_outputs(folder) as stage:
+        result = film_trajectory(
+            trajectory, model, stage, render=rs, video=video, progress=progress, player=player
+        )
+    return relocated(result, stage, folder)
+
+
+def check_buffer(model: mujoco.MjModel, rs: RenderSpec) -> None:
+    """Refuse a frame larger than ``model``'s off-screen buffer.
+
+    Raises:
+        RenderError: naming both sizes and the model's setting.
+    """
     buffer = (int(model.vis.global_.offwidth), int(model.vis.global_.offheight))
     if rs.width > buffer[0] or rs.height > buffer[1]:
         raise RenderError(
             f"frame {rs.width}x{rs.height} is larger than the model's off-screen buffer "
             f"{buffer[0]}x{buffer[1]} (visual/global offwidth, offheight)"
         )
-    folder = check_output_dir(out_dir)
+
+
+def film_trajectory(
+    trajectory: Trajectory,
+    model: mujoco.MjModel,
+    folder: str | os.PathLike,
+    *,
+    render: RenderSpec | None = None,
+    name: str | None = None,
+    video: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+    renderer: Renderer = FrameRenderer,
+    player: TrajectoryPlayer | None = None,
+) -> FilmOutputs:
+    """Film a trajectory into ``folder`` (which must exist; a caller's staging folder:
+    nothing is published here): ``<name>.mp4``, ``frame_NNNN.png`` snapshots,
+    ``contact_sheet.png`` and ``<name>.gif`` with ``render.gif``.
+
+    Args:
+        trajectory, model: what to play, on the model it fits (a staged copy is fine).
+        folder: where the files go.
+        render: size, camera, snapshots, contact sheet (default: the trajectory's).
+        name: the video's name (default: the trajectory's scene).
+        video: write the MP4.
+        progress: called with ``(frames done, frames total)`` after each frame.
+        renderer: makes the frame renderer (:data:`Renderer`).
+        player: the trajectory's player on ``model``, if the caller has made it.
+
+    Raises:
+        KeyboardInterrupt: stopped before its first frame (nothing to keep).
+    """
+    player = TrajectoryPlayer(trajectory, model) if player is None else player
+    rs = trajectory.render if render is None else render
+    check_buffer(model, rs)
     n = player.n_frames
     done: list[tuple[list[float], bool]] = []
 
     def run(film: FrameSink) -> None:
         done.append(player.run([film], on_frame=progress_reporter(progress, n)))
 
-    with staged_outputs(folder) as stage:
-        filmed, backend = _film(
-            model,
-            rs,
-            trajectory.fps,
-            n,
-            stage,
-            trajectory.scene,
-            video,
-            lambda record: trajectory.quats(record.index),
-            run,
-            marker_radius(trajectory_chains(model, trajectory, task="reach")),
-        )
-        times, interrupted = done[0]
-        if not times:  # stopped before its first frame: the previous set stays
-            raise KeyboardInterrupt
-        result = FilmOutputs(
-            folder=stage,
-            frames=len(times),
-            interrupted=interrupted,
-            video=filmed.video,
-            gif=filmed.gif,
-            snapshots=filmed.snapshots,
-            contact_sheet=filmed.sheet,
-            backend=backend,
-            frame_times=tuple(times),
-            notes=filmed.notes,
-        )
-    return relocated(result, stage, folder)
+    folder = Path(folder)
+    filmed, backend = _film(
+        model,
+        rs,
+        trajectory.fps,
+        n,
+        folder,
+        trajectory.scene if name is None else name,
+        video,
+        lambda record: trajectory.quats(record.index),
+        run,
+        marker_radius(trajectory_chains(model, trajectory, task="reach")),
+        renderer,
+    )
+    times, interrupted = done[0]
+    if not times:  # stopped before its first frame: the previous set stays
+        raise KeyboardInterrupt
+    return FilmOutputs(
+        folder=folder,
+        frames=len(times),
+        interrupted=interrupted,
+        video=filmed.video,
+        gif=filmed.gif,
+        snapshots=filmed.snapshots,
+        contact_sheet=filmed.sheet,
+        backend=backend,
+        frame_times=tuple(times),
+        notes=filmed.notes,
+    )

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -33,22 +34,15 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.models import needs_stage, reset_to_home
 from humanoid_ik.core.names import check_name
-from humanoid_ik.errors import MotionError, RenderError, TrajectoryFileError
-from humanoid_ik.outputs.record import progress_reporter
-from humanoid_ik.outputs.render.backend import select_backend
+from humanoid_ik.errors import MotionError, TrajectoryFileError
 from humanoid_ik.outputs.render.drawing import (
-    Film,
     FrameRenderer,
     camera_id,
-    marker_radius,
     project,
 )
-from humanoid_ik.outputs.render.pipeline import FilmOutputs
-from humanoid_ik.outputs.render.stills import GifFrames, Stills, sheet_indices, snapshot_plan
-from humanoid_ik.outputs.render.video import VideoWriter
-from humanoid_ik.outputs.stage import FILL, trajectory_chains, trajectory_stage
+from humanoid_ik.outputs.render.pipeline import FilmOutputs, film_trajectory
+from humanoid_ik.outputs.stage import FILL, trajectory_stage
 from humanoid_ik.run.metrics import FrameRecord
-from humanoid_ik.run.replay import TrajectoryPlayer
 from humanoid_ik.run.trajectory import Trajectory
 
 __all__ = [
@@ -366,52 +360,19 @@ def film_with_skeleton(
         )
     else:  # the model's own cameras: the one filming is moved back to frame the skeleton
         film_model = _framing(model, rs, X, trajectory)
-    buffer = (int(film_model.vis.global_.offwidth), int(film_model.vis.global_.offheight))
-    if rs.width > buffer[0] or rs.height > buffer[1]:
-        raise RenderError(
-            f"frame {rs.width}x{rs.height} is larger than the model's off-screen buffer "
-            f"{buffer[0]}x{buffer[1]} (visual/global offwidth, offheight)"
-        )
-    player = TrajectoryPlayer(trajectory, film_model)
-    n = player.n_frames
-    snaps, notes = snapshot_plan(rs.snapshots, trajectory.fps, n)
-    notes += _out_of_frame(film_model, rs, X, trajectory.qpos)
-    stills = Stills(snaps, sheet_indices(rs.contact_sheet, n))
-    gif = GifFrames(trajectory.fps) if rs.gif else None
-    marker = marker_radius(trajectory_chains(film_model, trajectory, task="reach"))
-    trail = round(rs.trail * trajectory.fps)
-    with SkeletonRenderer(
-        film_model, rs.width, rs.height, rs.camera, trail, marker, X, parents, radius
-    ) as fr:
-        backend = select_backend()
-        writer = None
-        if video:
-            writer = VideoWriter(folder / f"{name}.mp4", rs.width, rs.height, trajectory.fps)
-        images = [sink for sink in (writer, stills, gif) if sink is not None]
-        try:
-            film = Film(fr, lambda record: trajectory.quats(record.index), images)
-            times, interrupted = player.run([film], progress_reporter(progress, n))
-        except BaseException:  # a failed film leaves no video under its final name
-            if writer is not None:
-                writer.close(abort=True)
-            raise
-        video_path = None if writer is None else writer.close()
-    if not times:  # stopped before its first frame
-        raise KeyboardInterrupt
-    snapshots, sheet = stills.write(folder)
-    gif_path = None if gif is None else gif.write(folder / f"{name}.gif")
-    return FilmOutputs(
-        folder=folder,
-        frames=len(times),
-        interrupted=interrupted,
-        video=video_path,
-        gif=gif_path,
-        snapshots=snapshots,
-        contact_sheet=sheet,
-        backend=backend,
-        frame_times=tuple(times),
-        notes=tuple(notes),
+    notes = _out_of_frame(film_model, rs, X, trajectory.qpos)
+    renderer = functools.partial(SkeletonRenderer, skeleton=X, parents=parents, radius=radius)
+    filmed = film_trajectory(
+        trajectory,
+        film_model,
+        folder,
+        render=rs,
+        name=name,
+        video=video,
+        progress=progress,
+        renderer=renderer,
     )
+    return dataclasses.replace(filmed, notes=filmed.notes + tuple(notes))
 
 
 def _framing(
