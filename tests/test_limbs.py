@@ -19,7 +19,7 @@ from humanoid_ik.core.limbs import (
     profile_file,
     profile_for,
 )
-from humanoid_ik.core.models import load_model
+from humanoid_ik.core.models import bundled_dir, load_model
 from humanoid_ik.core.names import name_words
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.errors import ChainError, ModelError
@@ -120,6 +120,20 @@ def test_bundled_humanoid_limbs_are_its_default_chains():
     np.testing.assert_allclose(prof.forward, [1.0, 0.0, 0.0], atol=1e-9)
     chain = limb_chain(model, "right_arm")
     assert chain.joint_names == right.joint_names and chain.ee_name == "right_palm_site"
+
+
+def test_abbreviated_shoulder_and_wrist_names_make_arms():
+    """``models/robot``'s ``r_sh_pitch`` .. ``r_wr_yaw``: ``sh`` and ``wr`` are arm words."""
+    assert name_words("r_sh_pitch") == ["r", "sh", "pitch"]
+    model = load_model(bundled_dir("models") / "robot" / "robot.xml")
+    prof = find_limbs(model)
+    for side in ("l", "r"):
+        limb = prof.limb(f"{'left' if side == 'l' else 'right'}_arm")
+        assert limb.joints == tuple(
+            f"{side}_{j}"
+            for j in ("sh_pitch", "sh_roll", "sh_yaw", "elbow", "wr_roll", "wr_pitch", "wr_yaw")
+        )
+    assert "waist_yaw" not in prof.limb("right_arm").joints
 
 
 def test_g1_arms_leave_out_the_waist_and_its_head_is_fixed(g1):

@@ -224,3 +224,82 @@ def test_folder_of_two_clips_resumes(tmp_path, capsys):
     rows = (out / "summary.csv").read_text().splitlines()
     assert rows[1].startswith("a.bvh,skipped (done),20")
     assert not math.isnan(float(rows[1].split(",")[3]))
+
+
+def _goals(res, sides=("left", "right"), median=1e-3, p99=5e-3) -> None:
+    for side in sides:
+        pe = res.summary[side]["position_error_reachable_m"]
+        assert pe["median"] <= median and pe["p99"] <= p99, (side, pe)
+
+
+def test_humanoid_reach_exact_within_the_speed_limits(tmp_path):
+    """The forward reach (2.5 s): the planned swivel keeps every frame exact and inside
+    the speed limits, so the hand's jerk is the scaled source's."""
+    res = retarget(_clip(tmp_path, "reach", 300), None, None)
+    s = res.summary
+    _goals(res, median=1e-9, p99=1e-9)
+    assert s["frames_speed_cut"] == 0 and s["collision_frames"] == 0
+    for side in ("left", "right"):
+        assert s[side]["jerk_rms_m_s3"] == pytest.approx(s[side]["source_jerk_rms_m_s3"], rel=0.01)
+    _check_limits(load_model(None), res, {})
+
+
+def test_g1_reach_and_talos_wave_and_circles_meet_the_goals(tmp_path):
+    """G1's reach; Talos (wrist 1.76 rad/s, head 1 rad/s) waving and drawing circles: hand
+    median <= 1 mm, p99 <= 5 mm, the waving elbow within 5 degrees, every limit kept."""
+    cases = [("g1", "reach", 300), ("talos", "wave", 240), ("talos", "arm_circles", 300)]
+    for robot, motion, frames in cases:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = retarget(_clip(tmp_path, motion, frames), robot_file(robot), None)
+            model = load_model(robot_file(robot))
+        _goals(res)
+        if motion == "wave":
+            assert res.summary["right"]["elbow_frames"] > 100
+            assert res.summary["right"]["elbow_error_deg"]["median"] < 5.0
+        _check_limits(model, res, urdf_speeds(robot_file(robot)))
+        assert _collision_frames(model, res.trajectory.qpos) == 0
+
+
+def test_bounded_solve_keeps_the_hand_nearer_than_a_cut():
+    """A pose the speed box cannot reach (a fast wrist turn): inside the same box, the
+    box-bounded steps put the hand nearer its target than cutting the exact answer joint
+    by joint (the orientation gives way first)."""
+    from humanoid_ik.core.chain import Chain
+    from humanoid_ik.core.rotations import mat_to_quat
+    from humanoid_ik.core.types import Target
+    from humanoid_ik.experiments.retarget.speed import bounded_solve
+    from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+
+    chain = Chain(load_model(None))
+    q0 = chain.clip(chain.q_home)
+    q1 = chain.clip(q0 + np.array([0.04, 0.03, -0.04, 0.05, 0.8, 0.6, 0.3]))
+    p, R = chain.fk(q1)
+    exact = ClosedForm().solve(chain, Target(p, mat_to_quat(R)), q0)
+    assert exact.position_error < 1e-9
+    step = np.full(7, 0.05)
+    lo, hi = np.maximum(chain.lower, q0 - step), np.minimum(chain.upper, q0 + step)
+    cut = np.minimum(np.maximum(exact.q, lo), hi)
+    q, _ = bounded_solve(chain, cut, lo, hi, p, R)
+    assert np.all(q >= lo - 1e-12) and np.all(q <= hi + 1e-12)
+    err_cut = np.linalg.norm(chain.fk(cut)[0] - p)
+    err = np.linalg.norm(chain.fk(q)[0] - p)
+    assert err_cut > 0.01 and err < 0.8 * err_cut
+
+
+def test_reach_fraction_checked_and_kept_in_the_settings(tmp_path):
+    clip = _clip(tmp_path, "wave", 10)
+    with pytest.raises(Exception, match=r"reach must be a fraction in \[0.5, 1\], got 1.5"):
+        retarget(clip, None, None, reach=1.5)
+    full = retarget(clip, None, None, reach=1.0)
+    assert full.doc["settings"]["reach"] == 1.0
+    bent = retarget(clip, None, None)
+    assert bent.doc["scale"]["left"] == pytest.approx(0.95 * full.doc["scale"]["left"])
+
+
+def test_retarget_error_has_one_definition():
+    import humanoid_ik.errors as errors
+    from humanoid_ik.experiments.retarget import RetargetError
+    from humanoid_ik.experiments.retarget.human import RetargetError as from_human
+
+    assert RetargetError is errors.RetargetError is from_human

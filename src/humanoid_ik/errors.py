@@ -150,6 +150,11 @@ class BVHError(HumanoidIKError, ValueError):
         super().__init__(f"{where}: {message}")
 
 
+class RetargetError(HumanoidIKError, ValueError):
+    """A retarget that cannot run: a skeleton without arms (the names looked for are
+    given), a bad mapping file or solver, a robot without arms."""
+
+
 def __getattr__(name: str) -> Any:
     if name == "TrajectoryError":
         warnings.warn(

@@ -51,7 +51,7 @@ KIND_WORDS: dict[str, frozenset[str]] = {
     "leg": frozenset("hip knee ankle leg legs foot toe toes sole thigh shin calf".split()),
     "head": frozenset("head neck cervical".split()),
     "torso": frozenset("torso waist trunk spine chest lumbar thoracic abdomen pelvis body".split()),
-    "arm": frozenset("shoulder elbow wrist arm forearm upperarm lowerarm".split()),
+    "arm": frozenset("shoulder sh elbow wrist wr arm forearm upperarm lowerarm".split()),
 }
 KIND_ORDER = ("finger", "leg", "head", "torso", "arm")
 """The first kind whose words a name has wins (``hand_left_index`` is a finger, though

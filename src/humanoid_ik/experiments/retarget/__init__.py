@@ -6,12 +6,15 @@
 - :mod:`.robot`: the robot's arms, head, speed limits and self-collision pairs;
 - :mod:`.targets`: the human's motion scaled onto the robot, frame by frame;
 - :mod:`.elbow`: the elbow's direction, as a swivel, a branch or null-space steps;
+- :mod:`.plan`: a ``closed_form`` arm's swivel planned over the whole clip;
+- :mod:`.speed`: a frame the speed limits do not allow exactly, position first;
 - :mod:`.solve`: every frame solved (exact solvers, ``lm``, the QP);
 - :mod:`.metrics`: the per-frame metrics, their summary and the plot;
 - :mod:`.pipeline`: :func:`retarget` (one clip, its files) and :func:`retarget_folder`.
 """
 
-from humanoid_ik.experiments.retarget.human import Mapping, RetargetError, find_human
+from humanoid_ik.errors import RetargetError
+from humanoid_ik.experiments.retarget.human import Mapping, find_human
 from humanoid_ik.experiments.retarget.pipeline import (
     CLIP_FILES,
     RetargetResult,

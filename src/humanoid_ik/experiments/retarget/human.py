@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from humanoid_ik.errors import HumanoidIKError, choices
+from humanoid_ik.errors import RetargetError, choices
 from humanoid_ik.motion.bvh import BVHClip, BVHError
 
 __all__ = ["ROLES", "SIDES", "HumanArm", "HumanSide", "RetargetError", "find_human", "Mapping"]
@@ -68,11 +68,6 @@ ROLES = tuple(f"{s}_{p}" for s in SIDES for p in ("shoulder", "elbow", "wrist", 
     "right_thigh",
 )
 """The roles a mapping file may name (``[joints]`` keys)."""
-
-
-class RetargetError(HumanoidIKError, ValueError):
-    """A retarget that cannot run: a skeleton without arms (the names looked for are
-    given), a bad mapping file, a robot without arms."""
 
 
 def _key(name: str) -> str:

@@ -40,7 +40,8 @@ from humanoid_ik.core.limbs import Profile, limb_chain
 from humanoid_ik.core.models import home_qpos
 from humanoid_ik.core.names import name_words
 from humanoid_ik.core.robot import Robot
-from humanoid_ik.experiments.retarget.human import SIDES, RetargetError
+from humanoid_ik.errors import RetargetError
+from humanoid_ik.experiments.retarget.human import SIDES
 from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
 
 __all__ = ["DEFAULT_SPEED", "RobotArm", "RobotSide", "urdf_speeds"]

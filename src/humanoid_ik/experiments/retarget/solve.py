@@ -4,8 +4,9 @@ from the previous frame, within the joint speed limits and free of self-collisio
 Per arm, with ``solver="auto"`` (the exact solvers where ``auto`` would take them):
 
 - a pose target (an arm of 6 joints or more) on a chain ``closed_form`` solves (a
-  spherical shoulder and wrist: the bundled humanoid): ``closed_form`` with its
-  ``swivel`` set to the human elbow's direction (:func:`~.elbow.swivel_for`), exact;
+  spherical shoulder and wrist: the bundled humanoid): ``closed_form`` at the swivel
+  planned over the clip (:func:`~.plan.plan_swivels`: the human elbow's where it is
+  bent, the least joint motion within the speed limits), exact;
 - a position target (an arm of fewer than 6 joints) on a chain ``two_link`` solves:
   among ``two_link``'s solutions, the one whose elbow is nearest the human's;
 - otherwise ``lm``, after :data:`ELBOW_STEPS` null-space steps that turn the elbow
@@ -15,8 +16,9 @@ Per arm, with ``solver="auto"`` (the exact solvers where ``auto`` would take the
 A pose the arm cannot reach (outside the ranges) is solved again for the position
 alone, with ``lm`` from that answer, so the hand stays on its path and only the
 orientation gives way. The head: ``look_at`` at the gaze point. Then the joint speed
-limits: each joint moves at most ``limit x frame time`` from the previous frame (the
-move is cut there; the frame's errors then show it). Then self-collision: where the
+limits: an arm's answer that would move a joint more than ``limit x frame time`` from
+the previous frame is solved again position first inside that box
+(:func:`~.speed.bounded_solve`); the head's move is cut to it. Then self-collision: where the
 derived pairs touch (:meth:`RobotSide.collisions`), the frame is solved again by the
 QP (``UpperBodyIK`` with those pairs, warm from the previous frame) and cut to the
 speed limits again.
@@ -36,16 +38,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.rotations import mat_to_quat
-from humanoid_ik.core.types import IKResult, Target
-from humanoid_ik.errors import choices
+from humanoid_ik.core.types import IKResult, Status, Target
+from humanoid_ik.errors import RetargetError, choices
 from humanoid_ik.experiments.retarget.elbow import elbow_angle, elbow_steps, swivel_for
-from humanoid_ik.experiments.retarget.human import RetargetError
+from humanoid_ik.experiments.retarget.plan import plan_swivels
 from humanoid_ik.experiments.retarget.robot import RobotArm, RobotSide
+from humanoid_ik.experiments.retarget.speed import STEPS, bounded_solve
 from humanoid_ik.experiments.retarget.targets import STRAIGHT, Targets, rest_offset
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.auto import Auto
+from humanoid_ik.solvers.base import error_buffers
 from humanoid_ik.solvers.jacobian.lm import LM
 from humanoid_ik.solvers.look_at import LookAt
 
@@ -118,6 +123,8 @@ class Retargeter:
         if self.gaze_on:
             self.method["head"] = "look_at" if solver == "auto" else "mink"
         self._qp: Any = None
+        self.plan: dict[str, NDArray[np.float64]] = {}
+        """The planned swivel per frame of each ``closed_form`` arm (:mod:`.plan`)."""
         self.q = {s: a.chain.clip(a.chain.q_home) for s, a in self.arms.items()}
         if self.gaze_on:
             assert robot.head is not None
@@ -168,6 +175,8 @@ class Retargeter:
             c.set_q(q)
             rest_offset(t, c.rotation.copy())
             self.q[side] = q
+            if self.method[side] == "closed_form" and arm.pose:
+                self.plan[side] = plan_swivels(arm, t, self.dt, q)
 
     # ------------------------------------------------------------------ one frame
     def solve(self, f: int) -> FrameSolve:
@@ -226,6 +235,12 @@ class Retargeter:
                 best = (score, res, how)
             return ratio <= 1.0 and err <= 1e-3
 
+        if side in self.plan:
+            res = ClosedForm(swivel=float(self.plan[side][f])).solve(
+                arm.chain, self.target(side, f), q0
+            )
+            if keep(res, "closed_form"):
+                return res, "closed_form"
         for k in range(SPEED_TRIES if w > 0 else 0):
             if keep(*self._arm_once(side, arm, f, q0, w * 0.5**k)):
                 return best[1], best[2]  # type: ignore[index]
@@ -242,7 +257,34 @@ class Retargeter:
         if keep(*self._arm_once(side, arm, f, q0, 0.0)):
             return best[1], best[2]  # type: ignore[index]
         assert best is not None
-        return best[1], best[2]
+        res, how = best[1], best[2]
+        if f == 0:
+            return res, how
+        return self._bounded(side, arm, f, q0, res), how + "+bounded"
+
+    def _bounded(self, side: str, arm: RobotArm, f: int, q0: NDArray, res: IKResult) -> IKResult:
+        """The hand's position first inside the speed box around ``q0``
+        (:func:`~.speed.bounded_solve`), from the fastest answer cut into the box and
+        from ``q0``; the better of the two."""
+        c, t = arm.chain, self.targets.arms[side]
+        step = arm.speed * self.dt
+        lo, hi = np.maximum(c.lower, q0 - step), np.minimum(c.upper, q0 + step)
+        R = t.rotation(f) if arm.pose else None
+        p = t.position[f]
+        best = min((bounded_solve(c, s, lo, hi, p, R) for s in (res.q, q0)), key=lambda r: r[1])
+        c.set_q(best[0])
+        tgt = self.target(side, f)
+        ep, er = pose_error(c.position, c.rotation, p, tgt.quat, *error_buffers(c))
+        return IKResult(
+            best[0].copy(),
+            False,
+            STEPS,
+            ep,
+            er if arm.pose else None,
+            Status.MAX_ITERATIONS,
+            "bounded",
+            "the exact answer exceeds a joint speed limit",
+        )
 
     def _arm_once(
         self, side: str, arm: RobotArm, f: int, q0: NDArray, w: float

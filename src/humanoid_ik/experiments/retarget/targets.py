@@ -6,9 +6,9 @@ Per arm and frame ``f`` (human points in the clip's world, metres and Z up):
 - the heading map ``M_f = H_robot H_human,f^T``: the human's forward/left/up frame
   (``HumanSide.heading``) onto the robot's (``Profile.forward``), a turn about z;
 - the hand position ``p_f = S_robot + s M_f (h_f - S_f)``: the hand point ``h`` relative
-  to the human shoulder ``S`` (the upper arm's joint), scaled by ``s = robot reach /
-  human arm length`` (upper arm + forearm + hand point, at rest), placed at the robot's
-  shoulder point;
+  to the human shoulder ``S`` (the upper arm's joint), scaled by ``s = k robot reach /
+  human arm length`` (``k``: :data:`REACH`; the human arm: upper arm + forearm + hand
+  point, at rest), placed at the robot's shoulder point;
 - the hand orientation ``R_f = M_f W_f C``: the human wrist's world rotation ``W_f``
   carried over with a fixed offset ``C`` per arm, chosen on the first frame: ``C =
   (M_0 W_0)^T R_0``, where ``R_0`` is the robot end frame's rotation after the first
@@ -40,6 +40,7 @@ from humanoid_ik.motion.bvh import BVHClip
 __all__ = [
     "BENT",
     "GAZE_DISTANCE",
+    "REACH",
     "STRAIGHT",
     "ArmTargets",
     "Targets",
@@ -55,6 +56,14 @@ arm within about 6 degrees of straight) has no direction to match: the solve doe
 pull it; the pull grows to full at :data:`BENT`."""
 BENT = 2 * STRAIGHT
 """From this bend on the elbow's direction is matched in full, and measured."""
+REACH = 0.95
+"""The fraction of the robot's full-stretch length the human's full arm length maps
+onto. 1 is the plain ratio of arm lengths: a human arm held straight is then a robot arm at
+full stretch, singular (the hand cannot move along the arm, and no elbow swivel is left
+to steer the shoulder off its gimbal lock). 0.95 keeps the robot arm bent by about 36
+degrees at the elbow of an arm of two equal links when the human's is straight: every
+target lies 5 % nearer the shoulder than the plain ratio puts it (``docs/retarget.md``
+has both measured)."""
 
 
 @dataclass
@@ -103,9 +112,14 @@ def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def scaled_targets(
-    clip: BVHClip, human: HumanSide, robot: RobotSide, frames: int | None = None
+    clip: BVHClip,
+    human: HumanSide,
+    robot: RobotSide,
+    frames: int | None = None,
+    reach: float = REACH,
 ) -> Targets:
-    """The targets of the first ``frames`` frames (all by default) of ``clip``."""
+    """The targets of the first ``frames`` frames (all by default) of ``clip``, the
+    human's full arm length mapped onto ``reach`` times the robot's (:data:`REACH`)."""
     F = clip.n_frames if frames is None else min(frames, clip.n_frames)
     pos, rot = clip.positions[:F], clip.rotations[:F]
     Hh = human.heading(pos)
@@ -117,7 +131,7 @@ def scaled_targets(
             continue
         S, E, W = pos[:, h.shoulder], pos[:, h.elbow], pos[:, h.wrist]
         hand = h.hand_point(pos)
-        s = arm.length / h.length
+        s = reach * arm.length / h.length
         rel = np.einsum("fij,fj->fi", M, hand - S) * s
         line = _unit(W - S)
         up = E - S
