@@ -453,7 +453,10 @@ def test_backend_from_mujoco_gl(monkeypatch):
     with pytest.raises(RenderError, match=r"MUJOCO_GL='disable' turns rendering off"):
         select_backend()
     monkeypatch.setenv("MUJOCO_GL", "vulkan")
-    with pytest.raises(RenderError, match=r"MUJOCO_GL='vulkan' is not a backend; expected"):
+    with pytest.raises(
+        RenderError,
+        match=r"MUJOCO_GL='vulkan' is not an OpenGL backend; expected one of egl, osmesa",
+    ):
         select_backend()
 
 

@@ -226,18 +226,17 @@ def test_scene_with_a_body_effector_on_the_urdf_arm():
 
 
 def test_scene_effector_needs_exactly_one_of_site_and_body(tmp_path):
-    """An effector with both site and body, or neither, is one line naming the key."""
+    """An effector with both site and body, or none of site, body and limb, is one line
+    naming the key."""
     text = ARM7_SCENE.read_text().replace(
         "../../examples/urdf_arm/arm7.urdf", str(ARM7).replace("\\", "/")
     )
-    for bad, got in (("", "neither"), ('body = "x"\nsite = "y"', "both")):
+    for bad, got in (("", "none"), ('body = "x"\nsite = "y"', "site, body")):
         p = tmp_path / "bad.toml"
         p.write_text(text.replace('body = "tool_link"', bad))
         with pytest.raises(SceneError) as exc:
             load_scene(p)
-        assert f"effectors[0].site: expected a site or a body (one of them), got {got}" in str(
-            exc.value
-        )
+        assert f"effectors[0].site: expected one of site, body or limb, got {got}" in str(exc.value)
     p = tmp_path / "nobody.toml"
     p.write_text(text.replace('body = "tool_link"', 'body = "hand"'))
     with pytest.raises(SceneError) as exc:
@@ -328,5 +327,5 @@ body = "tool_link"
     assert records["targets"]["status"] == "ok" and records["targets"]["success_rate"] == 1.0
     assert records["scene"]["status"] == "ok"
     sweep_file.write_text(text.replace('body = "tool_link"', 'body = "tool_link"\nsite = "x"'))
-    with pytest.raises(SweepError, match=r"targets\[0\]\.body: expected a site or a body"):
+    with pytest.raises(SweepError, match=r"targets\[0\]\.body: expected one of site, body or limb"):
         load_sweep(sweep_file)

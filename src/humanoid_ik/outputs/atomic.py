@@ -46,6 +46,7 @@ __all__ = [
     "publish",
     "published",
     "remove_stale",
+    "signals_held",
     "staged_outputs",
     "write_json",
     "write_text",
@@ -166,8 +167,8 @@ def atomic_dir(path: str | os.PathLike) -> Iterator[Path]:
     final = Path(path)
     remove_stale(final)
     tmp = _temporary(final, "dir")
-    tmp.mkdir()
-    try:
+    try:  # made inside the try: a Ctrl-C just after mkdir still removes it
+        tmp.mkdir()
         yield tmp
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -216,20 +217,51 @@ def published(folder: str | os.PathLike) -> list[str]:
 
 
 @contextmanager
-def _signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM held back for the block (delivered when it ends); a no-op
-    outside the main thread, where Python runs no signal handler anyway, and where
-    signals cannot be blocked (no ``pthread_sigmask``: Windows)."""
-    main = threading.current_thread() is threading.main_thread()
-    if not main or not hasattr(signal, "pthread_sigmask"):
+def signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM held back for the block and raised when it ends (publishing a
+    set, opening the viewer's window); a no-op outside the main thread, where Python
+    runs no signal handler anyway.
+
+    Two layers, as a process has threads of its own (OpenBLAS's, a viewer's): the main
+    thread blocks both signals (``pthread_sigmask`` where it exists, not on Windows), so
+    no system call of the block is cut short and a thread started in it inherits the
+    mask; and both Python handlers are replaced for the block by one that only notes the
+    signal, because the kernel hands a signal the main thread blocks to another thread,
+    whose C handler still has Python run the handler in the middle of the block. At its
+    end the handlers and the mask are put back, then each signal noted is raised.
+    """
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    held = {signal.SIGINT, signal.SIGTERM}
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    held = (signal.SIGINT, signal.SIGTERM)
+    noted: list[int] = []
+    before = (
+        signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        if hasattr(signal, "pthread_sigmask")
+        else None
+    )
+    handlers: dict[int, Any] = {}
+    late: BaseException | None = None
     try:
+        for sig in held:
+            if signal.getsignal(sig) is not None:  # None: set outside Python, kept
+                handlers[sig] = signal.getsignal(sig)
+                signal.signal(sig, lambda signum, frame: noted.append(signum))
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        for sig, handler in handlers.items():
+            while True:  # ``signal.signal`` first runs the handlers of signals just come
+                try:
+                    signal.signal(sig, handler)
+                    break
+                except BaseException as exc:  # a handler put back raised: keep it for last
+                    late = late or exc
+        if before is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        for sig in dict.fromkeys(noted):
+            signal.raise_signal(sig)
+        if late is not None:
+            raise late
 
 
 def publish(staging: str | os.PathLike, folder: str | os.PathLike) -> list[Path]:
@@ -244,7 +276,7 @@ def publish(staging: str | os.PathLike, folder: str | os.PathLike) -> list[Path]
     """
     src, dst = Path(staging), Path(folder)
     names = sorted(p.name for p in src.iterdir() if p.is_file() and not p.name.startswith("."))
-    with _signals_held(), _folder_lock(dst / _LOCK):
+    with signals_held(), _folder_lock(dst / _LOCK):
         ours = set(published(dst))
         theirs = [n for n in names if n not in ours and os.path.lexists(dst / n)]
         if theirs:
