@@ -26,7 +26,7 @@ the end effector's position (the swivel turns about ``S -> target``).
 
 The modules, in the order they build on each other:
 
-- :mod:`.numeric`: the arithmetic backends (floats for one target, numpy for a batch);
+- :mod:`.numeric`: the arithmetics (floats for one target, numpy for a batch);
 - :mod:`.geometry`: the arm's structure read from MuJoCo and its constants, kept with
   the chain;
 - :mod:`.swivel`: what a target fixes and what is linear in the swivel (the one

@@ -25,7 +25,7 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
     RANGE_TOL,
     TWO_PI,
     X_AXIS,
-    Backend,
+    Arithmetic,
     Real,
     Vec,
     cross,
@@ -305,7 +305,7 @@ class Forearm(NamedTuple):
     """Outer radius [m]: ``sqrt((l1 + l2)^2 + h^2)``."""
 
 
-def forearm(xp: Backend, S: Vec, E: Vec, ue: Vec, P: Vec) -> Forearm:
+def forearm(xp: Arithmetic, S: Vec, E: Vec, ue: Vec, P: Vec) -> Forearm:
     """The :class:`Forearm` of point ``P`` (at zero) for shoulder ``S``, elbow anchor
     ``E`` and unit elbow axis ``u_e``.
 

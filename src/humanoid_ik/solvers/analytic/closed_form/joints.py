@@ -24,7 +24,7 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
     ARRAYS,
     RANGE_TOL,
     TWO_PI,
-    Backend,
+    Arithmetic,
     Real,
     Vec,
     into_range,
@@ -52,7 +52,7 @@ the joint does not decompose)."""
 
 
 def branch_angles(
-    xp: Backend, tri: Triple, branch: tuple, decomposes: Real, q_pref: Sequence[Real]
+    xp: Arithmetic, tri: Triple, branch: tuple, decomposes: Real, q_pref: Sequence[Real]
 ) -> Angles:
     """The :data:`Angles` of one branch of a :data:`~.swivel.Decomposition`.
 
@@ -76,7 +76,7 @@ def branch_angles(
     return (a, b, c), viol, key
 
 
-def choose(xp: Backend, first: Angles, second: Angles) -> Angles:
+def choose(xp: Arithmetic, first: Angles, second: Angles) -> Angles:
     """``second`` where its key is smaller, else ``first``."""
     pick = second[2] < first[2]
     qa, qb = first[0], second[0]
@@ -85,7 +85,7 @@ def choose(xp: Backend, first: Angles, second: Angles) -> Angles:
 
 
 def best_branch(
-    xp: Backend,
+    xp: Arithmetic,
     tri: Triple,
     dec: Decomposition,
     q_pref: Sequence[Real],

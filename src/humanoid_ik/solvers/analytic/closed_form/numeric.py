@@ -3,8 +3,9 @@
 The closed form's derivation is written once, in functions whose numbers are either
 plain Python floats (one target: no numpy call, about 30 ns an operation) or numpy
 arrays that broadcast together (a batch: one numpy call per operation for every
-target). Arithmetic operators work on both; the few other operations come from a
-backend ``xp``, :data:`FLOATS` or :data:`ARRAYS`. Comparisons are combined with ``&``
+target). Arithmetic operators work on both; the few other operations come from an
+:class:`Arithmetic` ``xp``, :data:`FLOATS` or :data:`ARRAYS` (not a rendering backend:
+that word is the renderer's, ``outputs/render/backend.py``). Comparisons are combined with ``&``
 and ``|``, which mean the same on Python bools and on bool arrays (``not`` and ``~``
 do not); only a step that runs on floats alone (``xp.floats``, a lazy reading) branches
 on a comparison with ``if``.
@@ -31,7 +32,7 @@ __all__ = [
     "RANGE_TOL",
     "Real",
     "Vec",
-    "Backend",
+    "Arithmetic",
     "FLOATS",
     "ARRAYS",
     "sub",
@@ -59,7 +60,7 @@ X_AXIS: Vec = (1.0, 0.0, 0.0)
 Y_AXIS: Vec = (0.0, 1.0, 0.0)
 
 
-class Backend:
+class Arithmetic:
     """The non-arithmetic operations on numbers of one kind (see the module's docstring).
 
     The operations are instance attributes (a fast lookup on the float path).
@@ -101,12 +102,12 @@ def _clip(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
 
 
-FLOATS = Backend(True, math.sqrt, math.atan2, math.acos, _where, bool, max, _clip, round)
-"""The backend of one target: plain Python floats (``math``)."""
-ARRAYS = Backend(
+FLOATS = Arithmetic(True, math.sqrt, math.atan2, math.acos, _where, bool, max, _clip, round)
+"""The arithmetic of one target: plain Python floats (``math``)."""
+ARRAYS = Arithmetic(
     False, np.sqrt, np.arctan2, np.arccos, np.where, np.any, np.maximum, np.clip, np.round
 )
-"""The backend of a batch."""
+"""The arithmetic of a batch."""
 
 
 def vec(v: Any) -> Vec:
@@ -154,7 +155,7 @@ def proj(rows: Sequence[float], v: Vec) -> Vec:
     return a0 * x + a1 * y + a2 * z, b0 * x + b1 * y + b2 * z, c0 * x + c1 * y + c2 * z
 
 
-def unit(xp: Backend, v: Vec, fallback: Vec | Callable[[], Vec], eps: float = 1e-12) -> Vec:
+def unit(xp: Arithmetic, v: Vec, fallback: Vec | Callable[[], Vec], eps: float = 1e-12) -> Vec:
     """``v / |v|``; where ``|v| < eps`` the vector ``fallback`` (or ``fallback()``, called
     only then)."""
     x, y, z = v
@@ -172,7 +173,7 @@ def unit(xp: Backend, v: Vec, fallback: Vec | Callable[[], Vec], eps: float = 1e
     )
 
 
-def perp_unit(xp: Backend, v: Vec, n: Vec, fallbacks: Callable[[], Sequence[Vec]]) -> Vec:
+def perp_unit(xp: Arithmetic, v: Vec, n: Vec, fallbacks: Callable[[], Sequence[Vec]]) -> Vec:
     """The unit component of ``v`` normal to unit ``n``: ``w / |w|``, ``w = v - (v . n) n``.
 
     Done twice: once normalised, a short component is normal to ``n`` to rounding,
@@ -200,7 +201,7 @@ def _normal_part(v: Vec, n: Vec) -> Vec:
 
 
 def _perp_fallback(
-    xp: Backend, w: Vec, norm: Real, bad: Real, n: Vec, fallbacks: Callable[[], Sequence[Vec]]
+    xp: Arithmetic, w: Vec, norm: Real, bad: Real, n: Vec, fallbacks: Callable[[], Sequence[Vec]]
 ) -> Vec:
     """:func:`perp_unit` where some ``|w|`` is short (the same arithmetic elsewhere)."""
     inv = 1.0 / xp.where(bad, 1.0, norm)
@@ -224,6 +225,17 @@ def _perp_fallback(
     return out
 
 
-def into_range(xp: Backend, q: Real, center: Real) -> Real:
+def into_range(xp: Arithmetic, q: Real, center: Real) -> Real:
     """``q + 2 pi round((center - q) / 2 pi)``: ``q`` shifted by turns next to ``center``."""
     return q + TWO_PI * xp.round((center - q) / TWO_PI)
+
+
+def __getattr__(name: str) -> Any:
+    if name == "Backend":  # its former name, for one release
+        import warnings
+
+        warnings.warn(
+            f"{__name__}.Backend is deprecated; use Arithmetic", DeprecationWarning, stacklevel=2
+        )
+        return Arithmetic
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

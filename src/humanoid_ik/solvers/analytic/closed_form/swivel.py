@@ -17,7 +17,7 @@ them, at any swivel, both decompositions and the range tests (:func:`decompose`)
 the swivels where a hinge meets a range end (:func:`range_end_roots`, each
 ``k_c cos psi + k_s sin psi = d``).
 
-Every function takes floats (one target) or arrays (a batch) with a backend ``xp``
+Every function takes floats (one target) or arrays (a batch) with an arithmetic ``xp``
 (:mod:`.numeric`).
 """
 
@@ -41,7 +41,7 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
     FLOATS,
     X_AXIS,
     Y_AXIS,
-    Backend,
+    Arithmetic,
     Real,
     Vec,
     cross,
@@ -105,7 +105,7 @@ def wrist_target(ctx: ArmContext, p: Sequence[Real], R: Sequence[Sequence[Real]]
     )
 
 
-def hand_forearm(xp: Backend, ctx: ArmContext, c: Vec, s: Vec) -> Forearm:
+def hand_forearm(xp: Arithmetic, ctx: ArmContext, c: Vec, s: Vec) -> Forearm:
     """The :class:`Forearm` of the end effector with the wrist at angles ``q5..q7``:
     ``P = W0 + Rot(w1, q5) Rot(w2, q6) Rot(w3, q7) (p_ee0 - W0)`` (``c, s``: their
     cosines and sines)."""
@@ -116,7 +116,7 @@ def hand_forearm(xp: Backend, ctx: ArmContext, c: Vec, s: Vec) -> Forearm:
     return forearm(xp, ctx.S, ctx.E, ctx.ue, (W0[0] + v[0], W0[1] + v[1], W0[2] + v[2]))
 
 
-def rest_direction(xp: Backend, ctx: ArmContext, fa: Forearm) -> Vec:
+def rest_direction(xp: Arithmetic, ctx: ArmContext, fa: Forearm) -> Vec:
     """Unit ``P(0) - S = Pc + Pa - S``: the arm's line at zero, which stands in for the
     target's direction when the target sits on the shoulder (world x if that vanishes)."""
     Pc, Pa, S = fa.Pc, fa.Pa, ctx.S
@@ -124,7 +124,7 @@ def rest_direction(xp: Backend, ctx: ArmContext, fa: Forearm) -> Vec:
     return unit(xp, d, X_AXIS)
 
 
-def elbow_branches(xp: Backend, ctx: ArmContext, fa: Forearm, cos_e: Real) -> tuple[Real, ...]:
+def elbow_branches(xp: Arithmetic, ctx: ArmContext, fa: Forearm, cos_e: Real) -> tuple[Real, ...]:
     """Both elbow angles ``q4 = alpha +- acos(cos_e)`` [rad], each shifted by turns next to
     the middle of the elbow's range, and whether the two differ (``0 < phi < pi``).
 
@@ -138,7 +138,7 @@ def elbow_branches(xp: Backend, ctx: ArmContext, fa: Forearm, cos_e: Real) -> tu
 
 
 def swivel_frame(
-    xp: Backend, ctx: ArmContext, t: Vec, along: Vec | Callable[[], Vec]
+    xp: Arithmetic, ctx: ArmContext, t: Vec, along: Vec | Callable[[], Vec]
 ) -> tuple[Vec, Vec, Vec]:
     """``(n, r, k)``: ``n = t / |t|`` (``along`` where ``t`` vanishes), ``r`` the unit
     part of gravity normal to ``n`` (world x, then y, where gravity is along ``n``),
@@ -166,7 +166,7 @@ def start_elbow(ctx: ArmContext, c: Vec, s: Vec) -> Vec:
     return shoulder_turn(ctx, c, s, ctx.e_rest)
 
 
-def start_swivel(xp: Backend, e: Vec, r: Vec, k: Vec) -> tuple[Real, Real]:
+def start_swivel(xp: Arithmetic, e: Vec, r: Vec, k: Vec) -> tuple[Real, Real]:
     """``(cos, sin)`` of the swivel at which the elbow lies closest to ``e``: the angle of
     ``(e . r, e . k)`` (``(1, 0)`` where ``e`` lies along ``n``)."""
     x = e[0] * r[0] + e[1] * r[1] + e[2] * r[2]
@@ -182,7 +182,7 @@ def start_swivel(xp: Backend, e: Vec, r: Vec, k: Vec) -> tuple[Real, Real]:
 
 # ------------------------------------------------------------------------------ an elbow branch
 def arm_frame(
-    xp: Backend, ctx: ArmContext, fa: Forearm, n: Vec, ce: Real, se: Real
+    xp: Arithmetic, ctx: ArmContext, fa: Forearm, n: Vec, ce: Real, se: Real
 ) -> tuple[Vec, Vec, Vec]:
     """``(a, b, cv)`` at elbow ``(cos q4, sin q4) = (ce, se)``, shoulder at zero:
     ``a = unit(P(q4) - S)`` (``n`` if it vanishes), ``b`` the unit part of ``E - S``
@@ -291,18 +291,18 @@ def wrist_coefficients(
 # ------------------------------------------------------------------------------ at a swivel
 @overload
 def decompose(
-    xp: Backend, tri: Triple, k: Coefficients, c: Real, s: Real, lazy: Literal[False] = False
+    xp: Arithmetic, tri: Triple, k: Coefficients, c: Real, s: Real, lazy: Literal[False] = False
 ) -> Decomposition: ...
 
 
 @overload
 def decompose(
-    xp: Backend, tri: Triple, k: Coefficients, c: Real, s: Real, lazy: bool
+    xp: Arithmetic, tri: Triple, k: Coefficients, c: Real, s: Real, lazy: bool
 ) -> Decomposition | None: ...
 
 
 def decompose(
-    xp: Backend, tri: Triple, k: Coefficients, c: Real, s: Real, lazy: bool = False
+    xp: Arithmetic, tri: Triple, k: Coefficients, c: Real, s: Real, lazy: bool = False
 ) -> Decomposition | None:
     """Both decompositions of a joint at swivel ``(c, s) = (cos psi, sin psi)``.
 
@@ -388,7 +388,7 @@ def feasible(dec: Decomposition) -> Real:
 
 
 def range_end_roots(
-    xp: Backend, tri: Triple, k: Coefficients, cp: Real, sp: Real
+    xp: Arithmetic, tri: Triple, k: Coefficients, cp: Real, sp: Real
 ) -> list[tuple[Real, Real, Real, Real]]:
     """The swivels where a hinge of the joint meets a range end (or the joint stops
     decomposing): per equation of :attr:`Triple.eqs`, ``k0 + kc cos + ks sin = rhs``,
