@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -331,3 +332,76 @@ def test_sweep_percentages_never_round_up_to_100():
     assert percent(0.123456, "11.1f") == "       12.3"
     assert percent(None, "11.1f") == "          -"
     assert percent(0.9999, ".0f") == "99"
+
+
+def test_a_bad_mujoco_gl_leaves_no_output_folder(tmp_path):
+    """`MUJOCO_GL=foo humanoid-ik render circle`: the backend is chosen before the output
+    folder is made, so the one-line error (exit 2) leaves no folder behind, neither the
+    default renders/circle nor --out's."""
+    env = {k: v for k, v in os.environ.items() if k != "PYOPENGL_PLATFORM"}
+    env["MUJOCO_GL"] = "foo"
+    for out in ((), ("--out", str(tmp_path / "a" / "b"))):
+        res = subprocess.run(
+            _cli("render", "circle", "--frames", "2", "--no-video", *out),
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=tmp_path,
+            timeout=300,
+        )
+        assert res.returncode == 2 and res.stdout == ""
+        assert res.stderr.splitlines() == [
+            "humanoid-ik: error: MUJOCO_GL='foo' is not an OpenGL backend; expected one of "
+            "egl, osmesa, glfw, glx (or unset it: EGL, else OSMesa)"
+        ]
+        assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_bundled_folder_variable_is_named_when_nothing_is_there(tmp_path, monkeypatch, capsys):
+    """HUMANOID_IK_MODELS / _SCENES / _SWEEPS pointing at a folder without the default
+    file: the one-line error (exit 2) names the variable and its value; a path the user
+    gave, not in that folder, is not blamed on it."""
+    empty = str(tmp_path)
+
+    def error(var: str, *argv: str) -> str:
+        with monkeypatch.context() as m:
+            m.setenv(var, empty)
+            code, out, err = _run(capsys, *argv)
+        assert code == 2 and out == "" and len(err.splitlines()) == 1, err
+        return err
+
+    said = " sets the bundled {} folder; unset it for the package's own)\n"
+    models = f"(HUMANOID_IK_MODELS='{empty}'" + said.format("models")
+    scenes = f"(HUMANOID_IK_SCENES='{empty}'" + said.format("scenes")
+    sweeps = f"(HUMANOID_IK_SWEEPS='{empty}'" + said.format("sweeps")
+    err = error("HUMANOID_IK_MODELS", "solve", "--target", "0.3,-0.3,1.1")
+    assert (
+        err
+        == f"humanoid-ik: error: model file '{empty}/humanoid/scene.xml' does not exist {models}"
+    )
+    err = error("HUMANOID_IK_MODELS", "run", "circle", "--frames", "2", "--out", f"{empty}/o")
+    assert err.endswith(
+        f"circle.toml: model: model file '{empty}/humanoid/scene.xml' does not exist {models}"
+    )
+    err = error("HUMANOID_IK_MODELS", "solve", "--target", "0.3,-0.3,1.1", "--model", "x.xml")
+    assert err == "humanoid-ik: error: model file 'x.xml' does not exist\n"
+    err = error("HUMANOID_IK_SCENES", "render", "circle")
+    assert err == (
+        "humanoid-ik: error: circle: no such scene file; expected a path or a bundled scene: "
+        f"(none) {scenes}"
+    )
+    assert error("HUMANOID_IK_SCENES", "scenes").endswith(
+        f"no bundled scenes in '{empty}' {scenes}"
+    )
+    err = error("HUMANOID_IK_SWEEPS", "sweep", "compare_solvers")
+    assert err == (
+        "humanoid-ik: error: compare_solvers: no such sweep file; expected a path or a bundled "
+        f"sweep: (none) {sweeps}"
+    )
+    # unset: the names are looked up in the package's own folders
+    err = error("HUMANOID_IK_MOTIONS", "sweep", "compare_solver")
+    assert err.endswith("no such sweep file; expected a path or a bundled sweep: compare_solvers\n")
+    from humanoid_ik.config.sweep_file import load_sweep
+
+    assert len(load_sweep("compare_solvers").jobs) == 60  # a bundled sweep by its name
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -596,3 +596,26 @@ def test_help_and_library_do_not_import_pydantic():
         "assert 'pydantic' in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+
+
+def test_check_scene_refuses_a_name_that_is_not_a_name():
+    """A Python-built scene's name becomes its output folder (renders/<name>): check_scene
+    refuses one that would lead out of it, in one line, as a file's name is refused."""
+    from humanoid_ik.config.scene import EffectorSpec
+    from humanoid_ik.motion import Circle, TargetTrack
+
+    ok = Scene(
+        name="py",
+        duration=1.0,
+        fps=10,
+        solver=SolverSpec("dls"),
+        targets=(TargetTrack("t", Circle([0.4, -0.3, 1.2], 0.1)),),
+        effectors=(EffectorSpec("right_palm_site", "t"),),
+    )
+    assert len(check_scene(ok)) == 1
+    for bad in ("../escape", "/abs", "a b", "", ".hidden"):
+        with pytest.raises(SceneError) as info:
+            check_scene(replace(ok, name=bad))
+        message = str(info.value)
+        assert message.startswith(f"<scene '{bad}'>: name: expected ") and "\n" not in message
+        assert message.endswith(f"got {bad!r}")

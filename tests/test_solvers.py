@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from humanoid_ik import Chain, SolverError, Target, TargetError, make_solver
+from humanoid_ik import Chain, SolverError, Target, TargetError, make_solver, solve
 from humanoid_ik.core.rotations import mat_to_quat, rotation_log
+from humanoid_ik.solvers import SOLVERS
 
 from .chains import SMALL_ARM_XML, model
 
@@ -453,3 +454,36 @@ def test_no_solver_leaves_the_ranges(rng):
                     continue
                 res = solver.solve(chain, tgt, q0)
                 assert chain.within_limits(res.q, tol=0.0), (name, pose, res.q)
+
+
+@pytest.mark.parametrize(
+    ("q0", "got"),
+    [
+        (np.full(7, 0.1 + 1j), "complex numbers: [(0.1+1j), (0.1+1j)"),
+        (np.zeros(7, complex), "complex numbers: [0j, 0j"),  # no imaginary part: still refused
+        (["0.1"] * 7, "text: ['0.1', '0.1'"),
+        (np.array(["0"] * 7), "text: ['0', '0'"),
+        ([True] * 7, "true/false values: [true, true"),
+        ([0.1, None, 0, 0, 0, 0, 0], "objects that are not real numbers: [0.1, None, 0"),
+        ("0000000", "text: '0000000'"),
+    ],
+)
+@pytest.mark.parametrize("solver_name", sorted(SOLVERS))
+def test_a_start_that_is_not_real_numbers_is_refused(solver_name, q0, got):
+    """``solve(..., q0=...)``: text, booleans, complex numbers (NumPy would turn them into
+    reals, a complex one with only a warning) are one TargetError line, for every solver;
+    so are the wrong length and NaN. The robot state is left as it was."""
+    chain = Chain()
+    before = chain.data.qpos.copy()
+    with pytest.raises(TargetError) as info:
+        solve(chain, [0.3, -0.25, 1.15], solver_name, q0=q0)
+    message = str(info.value)
+    assert message.startswith(f"joint vector must be 7 real numbers (rad), got {got}")
+    assert "\n" not in message and len(message) < 160
+    np.testing.assert_array_equal(chain.data.qpos, before)
+    for bad, said in (([0.1] * 6, r"shape \(7,\), got \(6,\)"), ([math.nan] * 7, "not finite")):
+        with pytest.raises(TargetError, match=said):
+            solve(chain, [0.3, -0.25, 1.15], solver_name, q0=bad)
+    # real numbers of any NumPy kind are taken: ints, float32, an object array of numbers
+    for good in (list(range(7)), np.zeros(7, np.float32), np.zeros(7, object)):
+        assert solve(chain, [0.3, -0.25, 1.15], solver_name, q0=good).q.shape == (7,)

@@ -26,6 +26,7 @@ __all__ = ["register"]
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
+    from humanoid_ik.outputs.record import check_output_dir
     from humanoid_ik.outputs.render.backend import select_backend
     from humanoid_ik.outputs.render.pipeline import render_scene
 
@@ -38,14 +39,16 @@ def _cmd_render(args: argparse.Namespace) -> int:
             raise UsageError(f"--camera '{args.camera}' not in model; cameras: {', '.join(cams)}")
     scene, out = scene_from_args(
         args,
+        create=False,
         width=args.width,
         height=args.height,
         camera=args.camera,
         gif=True if args.gif else None,
     )
-    backend = select_backend()
+    backend = select_backend()  # a bad MUJOCO_GL is said before any folder is made
     if backend.note:
         print(f"humanoid-ik: note: {backend.note}", file=sys.stderr)
+    check_output_dir(out)
     progress, close = run_progress(scene)
     try:
         result = render_scene(scene, out, video=not args.no_video, progress=progress)

@@ -117,12 +117,17 @@ def add_scene_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fps", type=_fps, metavar="F", help="frames per second")
 
 
-def scene_from_args(args: argparse.Namespace, **render: Any) -> tuple[Scene, Path]:
+def scene_from_args(
+    args: argparse.Namespace, *, create: bool = True, **render: Any
+) -> tuple[Scene, Path]:
     """The scene of :func:`add_scene_args`' arguments with the command line's choices
     applied and checked, and its output folder (created and checked writable).
 
     Args:
         args: the parsed arguments.
+        create: create and check the output folder; ``False`` leaves that to the caller
+            (``render`` first chooses the OpenGL backend, so a bad ``MUJOCO_GL`` leaves
+            no empty folder).
         render: render choices for :meth:`Scene.with_overrides` (width, height...).
 
     Raises:
@@ -156,7 +161,8 @@ def scene_from_args(args: argparse.Namespace, **render: Any) -> tuple[Scene, Pat
     )
     check_scene(scene)
     out = Path("renders") / scene.name if args.out is None else Path(args.out)
-    check_output_dir(out)
+    if create:
+        check_output_dir(out)
     return scene, out
 
 

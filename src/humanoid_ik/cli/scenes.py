@@ -12,10 +12,12 @@ __all__ = ["register"]
 
 def _cmd_scenes(args: argparse.Namespace) -> int:
     from humanoid_ik.config.scene import bundled_scenes, bundled_scenes_dir, load_scene
+    from humanoid_ik.core.models import bundled_override
 
     paths = bundled_scenes()
     if not paths:
-        raise RenderError(f"no bundled scenes in '{bundled_scenes_dir()}'")
+        folder = bundled_scenes_dir()
+        raise RenderError(f"no bundled scenes in '{folder}'{bundled_override('scenes')}")
     rows = []
     for p in paths:
         sc = load_scene(p)

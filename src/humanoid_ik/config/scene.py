@@ -71,7 +71,7 @@ from humanoid_ik.config.specs import (
     SolverSpec,
 )
 from humanoid_ik.config.toml import display_path, read_toml
-from humanoid_ik.core.models import bundled_dir
+from humanoid_ik.core.models import bundled_dir, bundled_override
 from humanoid_ik.core.robot_files import PackagePaths
 from humanoid_ik.errors import SceneError
 
@@ -121,7 +121,10 @@ def find_scene(name_or_path: str | os.PathLike) -> Path:
             return candidate
     names = ", ".join(s.stem for s in bundled_scenes()) or "(none)"
     raise SceneError(
-        str(name_or_path), "", f"no such scene file; expected a path or a bundled scene: {names}"
+        str(name_or_path),
+        "",
+        f"no such scene file; expected a path or a bundled scene: {names}"
+        + bundled_override("scenes"),
     )
 
 

@@ -19,8 +19,10 @@ from pathlib import Path
 from typing import Any
 
 import mujoco
+import numpy as np
 
 from humanoid_ik.config.placement import (
+    LimbPoint,
     PlacedTrack,
     RobotFrame,
     effector_chain,
@@ -34,6 +36,7 @@ from humanoid_ik.config.specs import (
     MAX_TRAIL,
     MIN_FPS,
     MIN_IMAGE_SIZE,
+    POLE,
     SIZE,
     EffectorSpec,
     Scene,
@@ -46,7 +49,9 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.checks import check_int, check_number
 from humanoid_ik.core.limbs import Profile, profile_for
 from humanoid_ik.core.models import load_model, staged_cameras
+from humanoid_ik.core.names import check_name
 from humanoid_ik.core.robot import Robot
+from humanoid_ik.core.types import MAX_COORDINATE
 from humanoid_ik.errors import HumanoidIKError, MotionError, SceneError, show_value
 from humanoid_ik.motion import MAX_KNOTS, RandomWalk, TargetTrack
 from humanoid_ik.solvers.mink.options import collision_pairs_problem
@@ -168,7 +173,33 @@ def _check_effector(
     reason = None if several else solver.applicable(chain, target.is_pose)
     if reason is not None:
         raise r.fail(where, f"solver '{spec.name}' cannot drive {key} ({eff.name}): {reason}")
+    _check_pole(r, scene, i)
     return chain
+
+
+def _check_pole(r: _Messages, scene: Scene, i: int) -> None:
+    """Effector ``i``'s elbow pole, if any: on a reaching effector, a world point within
+    :data:`~humanoid_ik.core.types.MAX_COORDINATE` or another target of the scene."""
+    eff = scene.effectors[i]
+    pole, key = eff.pole, f"effectors[{i}].pole"
+    if pole is None:
+        return
+    if eff.task == "look_at":
+        why = "no pole on a look_at effector (a pole places a reaching arm's elbow)"
+        raise r.expect(key, why, pole)
+    if isinstance(pole, str):
+        names = [t.name for t in scene.targets if t.name != eff.target]
+        if pole not in names:
+            valid = f"targets: {', '.join(map(repr, names))}" if names else "no other target"
+            raise r.expect(key, f"a target other than its own {eff.target!r} ({valid})", pole)
+        return
+    if isinstance(pole, LimbPoint):
+        why = "a world point: a { limb, at } pole is placed when a scene file is read"
+        raise r.expect(key, why, pole)
+    if not (isinstance(pole, tuple) and len(pole) == 3):
+        raise r.expect(key, POLE, pole)
+    if max(map(abs, pole)) > MAX_COORDINATE:
+        raise r.expect(key, f"coordinates within {MAX_COORDINATE:g} m", list(pole))
 
 
 def _check_render(r: _Messages, scene: Scene, model: mujoco.MjModel) -> None:
@@ -264,16 +295,16 @@ def place_scene(
     effectors: Sequence[EffectorSpec],
 ) -> tuple[tuple[TargetTrack, ...], tuple[EffectorSpec, ...], tuple[str, ...]]:
     """A scene's targets and effectors placed on its model: every placement in world
-    values (``config/placement.py``), every limb effector given its end frame and joints
-    (a ``look_at`` of a fixed head, as on G1, left out with a note). Returns the targets,
-    the effectors and the notes.
+    values (``config/placement.py``; an effector's ``{ limb, at }`` pole too), every limb
+    effector given its end frame and joints (a ``look_at`` of a fixed head, as on G1,
+    left out with a note). Returns the targets, the effectors and the notes.
 
     Raises:
         SceneError: the model or the profile does not load, a limb the model lacks, a
             value the motion refuses once placed (naming the key).
     """
     if not any(isinstance(t, PlacedTrack) for t in targets) and all(
-        e.kind != "limb" for e in effectors
+        e.kind != "limb" and not isinstance(e.pole, LimbPoint) for e in effectors
     ):
         return tuple(targets), tuple(effectors), ()  # type: ignore[arg-type]
     model = _model(source, model_path, packages)
@@ -290,6 +321,14 @@ def place_scene(
     out: list[EffectorSpec] = []
     notes: list[str] = []
     for i, e in enumerate(effectors):
+        if isinstance(e.pole, LimbPoint):  # the elbow's pole: a point in the world
+            try:
+                pole = frame.value(e.pole, f"effectors[{i}].pole")
+            except MotionError as exc:
+                raise SceneError(
+                    source, exc.field, f"expected {exc.expected}, got {show_value(exc.got)}"
+                ) from None
+            e = replace(e, pole=tuple(np.asarray(pole).tolist()))
         if e.kind != "limb":
             out.append(e)
             continue
@@ -318,9 +357,12 @@ def place_scene(
 def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain]:
     """Check a scene against its model and return one chain per effector.
 
-    Checks every size-like value is within its bound (``docs/limits.md``), the sites and
-    joints exist, no two effectors share a joint, the camera exists, the frame fits
-    MuJoCo's off-screen buffer, and each effector's solver can solve its chain and task.
+    Checks the name is a :data:`~humanoid_ik.core.names.NAME` (it names the output
+    folder and files), every size-like value is within its bound (``docs/limits.md``),
+    the sites and joints exist, no two effectors share a joint, the camera exists, the
+    frame fits MuJoCo's off-screen buffer, each effector's solver can solve its chain
+    and task, and each elbow pole is a world point or another target of the scene, on a
+    reaching effector.
 
     Args:
         scene: the scene.
@@ -333,6 +375,7 @@ def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain
         SceneError: naming the scene file, the key and what was expected.
     """
     r = _Messages(scene)
+    r.call("", check_name, "name", scene.name)  # it becomes the output folder's name
     _check_sizes(r, scene)
     if model is None:
         model = scene_model(scene)

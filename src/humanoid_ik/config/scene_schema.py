@@ -23,7 +23,7 @@ from pydantic import (
     model_validator,
 )
 
-from humanoid_ik.config.placement import LIMBS, Placed, PlacedTrack, placed
+from humanoid_ik.config.placement import LIMBS, LimbPoint, Placed, PlacedTrack, placed, placement
 from humanoid_ik.config.schema import (
     Packages,
     SolverTable,
@@ -42,6 +42,7 @@ from humanoid_ik.config.specs import (
     MAX_SNAPSHOTS,
     MAX_TRAIL,
     MIN_FPS,
+    POLE,
     SIZE,
     TASKS,
     EffectorSpec,
@@ -51,7 +52,13 @@ from humanoid_ik.config.specs import (
     frame_size_ok,
 )
 from humanoid_ik.config.toml import NAME, name_ok
-from humanoid_ik.core.checks import check_bool, check_choice, check_int, check_number
+from humanoid_ik.core.checks import (
+    check_bool,
+    check_choice,
+    check_int,
+    check_number,
+    check_vector,
+)
 from humanoid_ik.core.models import bundled_model_path
 from humanoid_ik.errors import MotionError
 from humanoid_ik.motion import MOTIONS, Motion, Orientation, TargetTrack
@@ -151,6 +158,27 @@ def _names(v: Any) -> bool:
     return isinstance(v, list) and bool(v) and all(isinstance(j, str) for j in v)
 
 
+def _pole(value: Any) -> Any:
+    """``pole``: a target's name (checked against the targets with the model,
+    ``config/scene_check.py``), a world point ``(x, y, z)``, or a point placed relative
+    to a limb (a :class:`~humanoid_ik.config.placement.LimbPoint`, placed with the
+    scene)."""
+    if isinstance(value, str) and value:
+        return value
+    if isinstance(value, dict) and set(value) == {"limb", "at"}:
+        try:
+            p = placement(value, "")
+        except MotionError as exc:
+            raise expected(exc.expected, exc.got, exc.field.lstrip(".")) from None
+        if isinstance(p, LimbPoint) and p.at.shape == (3,):
+            return p
+        raise expected("[forward, left, up] (fractions of the reach)", value["at"], "at")
+    try:
+        return tuple(check_vector("pole", value).tolist())
+    except MotionError:
+        raise expected(POLE, value) from None
+
+
 class EffectorTable(Table):
     """An ``[[effectors]]`` entry (its target is checked by :class:`SceneFile`)."""
 
@@ -162,6 +190,7 @@ class EffectorTable(Table):
     joints: Annotated[tuple[str, ...], rule("a list of joint names", _names)] | None = None
     torso: Annotated[bool, checked(check_bool)] = False
     solver: SolverField | None = None
+    pole: Annotated[Any, BeforeValidator(_pole)] = None
 
     @model_validator(mode="after")
     def _one_end(self) -> EffectorTable:
@@ -190,6 +219,7 @@ class EffectorTable(Table):
             self.body,
             self.limb,
             self.torso,
+            self.pole,
         )
 
 

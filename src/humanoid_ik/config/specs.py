@@ -18,8 +18,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.config.toml import display_path
+from humanoid_ik.core.checks import check_vector
 from humanoid_ik.core.models import bundled_model_path
-from humanoid_ik.errors import SceneError, show_value
+from humanoid_ik.errors import MotionError, SceneError, show_value
 from humanoid_ik.motion import TargetTrack
 from humanoid_ik.solvers import SOLVERS, make_solver
 from humanoid_ik.solvers.options import SolverOptions
@@ -34,6 +35,7 @@ __all__ = [
     "MAX_TRAIL",
     "MIN_FPS",
     "MIN_IMAGE_SIZE",
+    "POLE",
     "SIZE",
     "TASKS",
     "EffectorSpec",
@@ -46,6 +48,10 @@ __all__ = [
     "takes_collision_pairs",
 ]
 
+POLE = (
+    "[x, y, z] (a world point), another target's name or { limb = NAME, at = [forward, left, up] }"
+)
+"""What an effector's elbow ``pole`` may be, as messages say it."""
 TASKS = ("reach", "look_at")
 """Effector tasks: ``reach`` puts the site on the target (and in its orientation for a
 pose target); ``look_at`` aims the site's x axis at the target."""
@@ -151,6 +157,11 @@ class EffectorSpec:
             placed on its model: ``site`` or ``body`` and ``joints`` then hold the limb's
             end frame and joints, and ``limb`` says where they came from.
         torso: with ``limb``: the torso's joints come first (they help the reach).
+        pole: the elbow's pole (``Target.pole``, ``docs/solvers.md``): a world point
+            ``(x, y, z)`` [m], or the name of another target of the scene, whose position
+            each frame is the pole; ``None`` for none. A file's ``{ limb, at }`` pole is
+            a :class:`~humanoid_ik.config.placement.LimbPoint` until the scene is placed
+            on its model, then a world point.
     """
 
     site: str | None
@@ -161,6 +172,7 @@ class EffectorSpec:
     body: str | None = None
     limb: str | None = None
     torso: bool = False
+    pole: Any = None
 
     def __post_init__(self) -> None:
         if (self.site is not None and self.body is not None) or (
@@ -182,6 +194,14 @@ class EffectorSpec:
             raise SceneError("<effector>", "torso", "expected a limb with torso = true")
         if self.joints is not None:
             object.__setattr__(self, "joints", tuple(self.joints))
+        if isinstance(self.pole, (list, tuple, np.ndarray)):  # a world point
+            try:
+                p = check_vector("pole", self.pole)
+            except MotionError as exc:
+                raise SceneError(
+                    "<effector>", "pole", f"expected {exc.expected}, got {show_value(exc.got)}"
+                ) from None
+            object.__setattr__(self, "pole", tuple(p.tolist()))
 
     @property
     def name(self) -> str:

@@ -57,7 +57,7 @@ from humanoid_ik.config.toml import display_path, integer_problem, read_toml
 from humanoid_ik.core.chain import DEFAULT_SITE, Chain
 from humanoid_ik.core.limbs import profile_for
 from humanoid_ik.core.model_files import model_digest, model_files
-from humanoid_ik.core.models import bundled_model_path, load_model
+from humanoid_ik.core.models import bundled_dir, bundled_model_path, bundled_override, load_model
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.errors import HumanoidIKError, MotionError, SweepError, show_value
 from humanoid_ik.motion import RandomWalk
@@ -67,6 +67,7 @@ __all__ = [
     "MAX_JOBS",
     "Job",
     "Sweep",
+    "find_sweep",
     "load_sweep",
     "model_digest",
     "model_files",
@@ -401,6 +402,31 @@ def load_sweep(path: str | os.PathLike) -> Sweep:
         SweepError: the file is missing or not TOML, or any value is wrong; the message
             names the file, the key and what was expected.
     """
-    p = Path(path)
+    p = find_sweep(path)
     source = display_path(p)
     return parse_sweep(read_toml(p, source, SweepError), source, p.parent)
+
+
+def find_sweep(name_or_path: str | os.PathLike) -> Path:
+    """A sweep file from a path, or from the name of a bundled sweep (``compare_solvers``,
+    in ``sweeps/``; ``HUMANOID_IK_SWEEPS`` overrides the folder).
+
+    Raises:
+        SweepError: a bare name that is neither a file nor a bundled sweep (the bundled
+            names are listed). A missing path is left to the reader's error.
+    """
+    p = Path(name_or_path)
+    if p.is_file() or p.suffix or p.parent != Path("."):
+        return p
+    folder = bundled_dir("sweeps")
+    candidate = folder / f"{p.name}.toml"
+    if candidate.is_file():
+        return candidate
+    found = sorted(folder.glob("*.toml")) if folder.is_dir() else []
+    names = ", ".join(f.stem for f in found) or "(none)"
+    raise SweepError(
+        str(name_or_path),
+        "",
+        f"no such sweep file; expected a path or a bundled sweep: {names}"
+        + bundled_override("sweeps"),
+    )

@@ -39,6 +39,7 @@ __all__ = [
     "VISUAL_GROUP",
     "bundled_dir",
     "bundled_model_path",
+    "bundled_override",
     "home_outside_ranges",
     "home_qpos",
     "check_finite",
@@ -64,18 +65,16 @@ _BUNDLED_PACKAGE = "humanoid_ik"
 _BUNDLED_FOLDER = "_bundled"
 _CHECKOUT_ROOT = Path(__file__).resolve().parents[3]
 BUNDLED_KINDS = ("models", "scenes", "sweeps", "motions")
-"""The bundled folders: the repository's top-level ``models/``, ``scenes/`` and
-``sweeps/``, shipped in a wheel as ``humanoid_ik/_bundled/<kind>/`` (``setup.py``)."""
+"""The bundled folders: the repository's top-level ``models/``, ``scenes/``, ``sweeps/``
+and ``motions/``, shipped in a wheel as ``humanoid_ik/_bundled/<kind>/`` (``setup.py``)."""
 
 
 def _bundled_root() -> Path:
-    """The folder holding the bundled ``models``/``scenes``/``sweeps``: the installed
-    package's ``_bundled`` (through ``importlib.resources``), else the checkout's top
-    level (an editable install).
+    """The folder holding the bundled folders: the installed package's ``_bundled``
+    (``importlib.resources``), else the checkout's top level (an editable install).
 
     Raises:
-        ModelError: the package is not installed as plain files (e.g. zipped), so MuJoCo
-            could not open the models.
+        ModelError: the package is not installed as plain files (e.g. zipped).
     """
     res = resources.files(_BUNDLED_PACKAGE).joinpath(_BUNDLED_FOLDER)
     if res.is_dir():
@@ -89,17 +88,22 @@ def _bundled_root() -> Path:
 
 
 def bundled_dir(kind: str) -> Path:
-    """The folder of bundled ``models``, ``scenes``, ``sweeps`` or ``motions`` (BVH clips).
-
-    ``HUMANOID_IK_MODELS`` / ``_SCENES`` / ``_SWEEPS`` / ``_MOTIONS`` override it.
-
-    Raises:
-        ModelError: ``kind`` is not one of :data:`BUNDLED_KINDS`.
-    """
+    """The folder of bundled ``models``, ``scenes``, ``sweeps`` or ``motions`` (BVH clips);
+    ``HUMANOID_IK_MODELS`` / ``_SCENES`` / ``_SWEEPS`` / ``_MOTIONS`` override it
+    (:func:`bundled_override`). Raises :class:`ModelError` for another ``kind``."""
     if kind not in BUNDLED_KINDS:
         raise ModelError(f"bundled folder '{kind}' unknown; folders: {', '.join(BUNDLED_KINDS)}")
     root = os.environ.get(f"HUMANOID_IK_{kind.upper()}")
     return Path(root) if root else _bundled_root() / kind
+
+
+def bundled_override(kind: str, path: str | os.PathLike | None = None) -> str:
+    """The end of a message about a bundled file not found: which ``HUMANOID_IK_<KIND>``
+    chose its folder (when the folder holds ``path``), else ``""``."""
+    root = os.environ.get(var := f"HUMANOID_IK_{kind.upper()}")
+    if not root or (path is not None and not Path(path).is_relative_to(root)):
+        return ""
+    return f" ({var}='{root}' sets the bundled {kind} folder; unset it for the package's own)"
 
 
 def bundled_model_path() -> Path:
@@ -233,7 +237,7 @@ def model_file(model: str | os.PathLike | None) -> Path:
     """
     path = bundled_model_path() if model is None else Path(model)
     if not path.is_file():
-        raise ModelError(f"model file '{path}' does not exist")
+        raise ModelError(f"model file '{path}' does not exist{bundled_override('models', path)}")
     return path
 
 

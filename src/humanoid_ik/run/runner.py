@@ -5,6 +5,8 @@ Per frame ``i`` at ``t = i / fps``:
 1. every target moves to ``motion.position(t)`` (and ``orientation.quat_at(t)``), once
    however many effectors track it (:meth:`Target.from_motion
    <humanoid_ik.core.types.Target.from_motion>`: the motion's output is not checked again);
+   an effector with an elbow ``pole`` gets it in its target (``Target.pole``): its fixed
+   point, or the position at ``t`` of the target it names;
 2. every effector's solver solves from the joint values of the previous frame (warm
    start; the first frame starts at the ``home`` keyframe), in the one robot state all
    the scene's chains share (:class:`~humanoid_ik.core.robot.Robot`): nothing is
@@ -153,10 +155,20 @@ class SceneRunner:
         sets it for its sinks (:func:`needs_forward`)."""
         self.specs: list[SolverSpec] = [scene.solver_for(e) for e in scene.effectors]
         self.targets = [scene.target(e.target) for e in scene.effectors]
-        # each target moves once per frame, however many effectors track it
-        names = list(dict.fromkeys(e.target for e in scene.effectors))
+        # each target moves once per frame, however many effectors track it (or have it
+        # as their elbow's pole)
+        effs = scene.effectors
+        poles = [e.pole for e in effs if isinstance(e.pole, str)]
+        names = list(dict.fromkeys([*(e.target for e in effs), *poles]))
         self._tracks = [scene.target(n) for n in names]
-        self._track_of = [names.index(e.target) for e in scene.effectors]
+        self._track_of = [names.index(e.target) for e in effs]
+        # each effector with an elbow pole: (effector, the index of the pole's track, or
+        # the fixed point); empty without poles, and a frame then costs nothing more
+        self._poles: list[tuple[int, int | NDArray[np.float64]]] = [
+            (i, names.index(e.pole) if isinstance(e.pole, str) else np.array(e.pole, float))
+            for i, e in enumerate(effs)
+            if e.pole is not None
+        ]
         # what every sample of an effector repeats: its name, its target's, its task
         self._labels = [(e.name, e.target, e.task) for e in scene.effectors]
         # each end effector's position and rotation and its chain's base: views of the
@@ -202,9 +214,18 @@ class SceneRunner:
         time includes it (mink's QP set-up, the Jacobian family's seed library)."""
         for solver, members in self._groups:
             if solver.solves_effectors:
-                solver.prepare_effectors(self._goals(members, [t.at(0.0) for t in self.targets]))
+                solver.prepare_effectors(self._goals(members, self._targets_at(0.0)))
             else:
                 solver.prepare(self.chains[members[0]])
+
+    def _targets_at(self, t: float) -> list[Target]:
+        """Every effector's target at time ``t`` [s], with its elbow's pole."""
+        moved = [trk.at(t) for trk in self._tracks]
+        targets = [moved[k] for k in self._track_of]
+        for i, pole in self._poles:
+            tg, at = targets[i], moved[pole].position if isinstance(pole, int) else pole
+            targets[i] = Target.from_motion(tg.position, tg.quat, at)
+        return targets
 
     def _goals(self, members: list[int], targets: list[Target]) -> list[EffectorGoal]:
         """The goals of effectors ``members`` (``targets``: every effector's target),
@@ -261,8 +282,7 @@ class SceneRunner:
         t = self.time_of(index) if t is None else float(t)
         m, d = self.model, self.data
         if targets is None:
-            moved = [trk.at(t) for trk in self._tracks]
-            targets = [moved[k] for k in self._track_of]
+            targets = self._targets_at(t)
         else:
             targets = list(targets)
         results: list[IKResult | None] = [None] * len(self.chains)

@@ -14,10 +14,45 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import axis_vector, pose_error
 from humanoid_ik.core.types import EffectorGoal, IKResult, Status, Target
-from humanoid_ik.errors import SolverError
+from humanoid_ik.errors import SolverError, TargetError, show_value
 from humanoid_ik.solvers.options import SolverOptions
 
-__all__ = ["Solver", "error_buffers"]
+__all__ = ["Solver", "check_start", "error_buffers"]
+
+_KINDS = {
+    "b": "true/false values",
+    "c": "complex numbers",
+    "U": "text",
+    "S": "text",
+    "O": "objects that are not real numbers",
+}
+"""What a start's NumPy dtype kind says it holds, when that is not real numbers."""
+
+
+def check_start(chain: Chain, q0: ArrayLike) -> NDArray[np.float64]:
+    """``q0`` as a start for ``chain``: ``n`` finite real numbers, a new float64 array.
+
+    Text, true/false values, complex numbers and objects that are not real numbers are
+    refused, though NumPy would convert them (``"0"`` and ``True`` to 0.0 and 1.0, a
+    complex number to its real part with only a warning).
+
+    Raises:
+        TargetError: not real numbers, the wrong length, or NaN/inf (one line).
+    """
+    try:
+        arr = np.asarray(q0)
+    except (TypeError, ValueError):  # ragged: the chain's check says it
+        return chain.check_q(q0)
+    kind = arr.dtype.kind
+    if kind == "O":  # a list of objects: each must be a real number
+        kinds = {np.asarray(v).dtype.kind for v in arr.ravel().tolist()}
+        kind = "f" if kinds <= {"i", "u", "f"} else "O"
+    if kind not in "iuf":
+        shown = show_value(q0)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        got = _KINDS.get(kind, str(arr.dtype))
+        raise TargetError(f"joint vector must be {chain.n} real numbers (rad), got {got}: {shown}")
+    return chain.check_q(arr)
 
 
 def error_buffers(chain: Chain) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -153,7 +188,7 @@ class Solver(ABC):
             reason = self.applicable(chain, tgt.is_pose)
             if reason is not None:
                 raise SolverError(reason)
-            start = chain.q if q0 is None else chain.check_q(q0)
+            start = chain.q if q0 is None else check_start(chain, q0)
             res = self._solve(chain, tgt, chain.clip(start))
             if tgt.pole is not None and "pole" not in res.details:
                 res = res.with_details(pole="ignored")
