@@ -252,3 +252,14 @@ def test_base_state_follows_the_joints_off_the_chain():
     chain.data.qpos[0] += 0.25  # the free joint's x
     assert chain.base_state() == [before[0] + 0.25, *before[1:]]
     assert Chain().base_state() is None
+
+
+@pytest.mark.parametrize("dtype", [complex, bool, str])
+def test_a_joint_vector_of_complex_bool_or_text_values_is_refused(dtype):
+    """numpy would drop an imaginary part or read True as 1.0; every entry point that
+    takes a joint vector (FK, the Jacobian) refuses such an array in one line."""
+    chain = Chain()
+    q = np.zeros(chain.n, dtype=dtype)
+    for call in (chain.fk, chain.jacobian):
+        with pytest.raises(TargetError, match="joint vector must be real numbers, got an array of"):
+            call(q)

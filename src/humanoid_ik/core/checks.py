@@ -179,6 +179,9 @@ def float_array(what: str, value: Any) -> NDArray[np.float64]:
     so a wrong type is one error of the package, never a bare ``ValueError``."""
     if isinstance(value, (str, bytes)):
         raise TargetError(f"{what} must be numbers, got the text {value!r}")
+    kind = getattr(getattr(value, "dtype", None), "kind", "f")
+    if kind in "bcUSV":  # numpy would drop an imaginary part or read True as 1.0
+        raise TargetError(f"{what} must be real numbers, got an array of {value.dtype}")
     try:
         return np.array(value, dtype=np.float64)
     except (TypeError, ValueError):

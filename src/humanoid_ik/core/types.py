@@ -106,31 +106,34 @@ class Target:
         (not copied; made read-only) and only its coordinates are bounded, with the
         constructor's error. Anything else, and a pose target's quaternion (which the
         constructor normalises), goes through the constructor. The frame loop builds
-        every frame's targets this way. A ``pole`` (an effector's elbow pole, itself a
-        motion's output) goes through the constructor too.
+        every frame's targets this way, and a ``pole`` (an effector's elbow pole, itself
+        a motion's output) alike.
         """
-        p = position
-        if (
-            quat is not None
-            or pole is not None
-            or type(p) is not np.ndarray
-            or p.dtype is not _FLOAT64
-        ):
-            return cls(p, quat, pole)
-        if p.shape != (3,):
-            return cls(p)
-        x, y, z = p.tolist()
-        if not (abs(x) <= MAX_COORDINATE and abs(y) <= MAX_COORDINATE and abs(z) <= MAX_COORDINATE):
-            return cls(p)  # raises the constructor's error
-        p.setflags(write=False)
+        if quat is not None or not _motion_point(position):
+            return cls(position, quat, pole)
+        if pole is not None and not _motion_point(pole):
+            return cls(position, None, pole)
+        position.setflags(write=False)
+        if pole is not None:
+            pole.setflags(write=False)
         new = object.__new__(cls)
-        new.__dict__.update(position=p, quat=None, pole=None, rotation=None)
+        new.__dict__.update(position=position, quat=None, pole=pole, rotation=None)
         return new
 
     @property
     def is_pose(self) -> bool:
         """True when the target includes an orientation."""
         return self.quat is not None
+
+
+def _motion_point(p: Any) -> bool:
+    """``p`` is a float64 ``(3,)`` array inside :data:`MAX_COORDINATE` (a motion's
+    output, which :meth:`Target.from_motion` takes as is); anything else, NaN included,
+    goes through the constructor's checks."""
+    if type(p) is not np.ndarray or p.dtype is not _FLOAT64 or p.shape != (3,):
+        return False
+    x, y, z = p.tolist()
+    return abs(x) <= MAX_COORDINATE and abs(y) <= MAX_COORDINATE and abs(z) <= MAX_COORDINATE
 
 
 def _point(what: str, value: ArrayLike) -> NDArray[np.float64]:
