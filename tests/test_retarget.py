@@ -303,3 +303,118 @@ def test_retarget_error_has_one_definition():
     from humanoid_ik.experiments.retarget.human import RetargetError as from_human
 
     assert RetargetError is errors.RetargetError is from_human
+
+
+# ------------------------------------------------------------------ film, names, folders
+def _one_armed(text: str) -> str:
+    """The clip with its left arm's names changed so that no rule finds them."""
+    for part in ("ForeArm", "Arm", "Hand", "Shoulder"):
+        text = text.replace(f"Left{part}", f"Lx{part}z")
+    return text
+
+
+def test_film_is_part_of_the_clip_set(tmp_path):
+    """``film=`` adds film.mp4 (6 frames), four snapshots and the contact sheet to the
+    set, published as one with the others (no staging left); the skeleton is violet in
+    the snapshots. A one-armed clip is filmed too (the skeleton placed on its one
+    shoulder)."""
+    import imageio_ffmpeg
+    from PIL import Image
+
+    from humanoid_ik.config.specs import RenderSpec
+    from humanoid_ik.experiments.retarget import FILM_FILES
+    from humanoid_ik.outputs.atomic import published
+    from humanoid_ik.outputs.render.video import mp4_complete
+
+    clip = _clip(tmp_path, "wave", 12)
+    film = RenderSpec(width=160, height=120, contact_sheet=4)
+    out = tmp_path / "out"
+    res = retarget(clip, None, out, frames=6, film=film, plot=False)
+    snaps = [f"frame_{i:04d}.png" for i in (0, 2, 3, 5)]
+    want = sorted({*CLIP_FILES, *FILM_FILES, *snaps} - {"metrics.png"})
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == want
+    assert not [p for p in out.iterdir() if p.is_dir()]  # no staging folder left
+    assert sorted(published(out)) == want and sorted(p.name for p in res.files) == want
+    assert mp4_complete(out / "film.mp4")
+    assert imageio_ffmpeg.count_frames_and_secs(str(out / "film.mp4"))[0] == 6
+    doc = json.loads((out / "metrics.json").read_text())
+    assert doc["film"]["frames"] == 6 and doc["film"]["files"] == sorted({*FILM_FILES, *snaps})
+    assert doc["settings"]["film"]["width"] == 160
+    with Image.open(out / "frame_0003.png") as im:
+        px = np.asarray(im.convert("RGB")).astype(int)
+    assert im.size == (160, 120)
+    violet = (px[..., 2] > 120) & (px[..., 2] - px[..., 1] > 60) & (px[..., 0] - px[..., 1] > 25)
+    assert violet[:, :80].sum() > 100 and violet[:, 80:].sum() == 0
+    one = tmp_path / "one.bvh"
+    one.write_text(_one_armed(clip.read_text()))
+    res = retarget(one, None, tmp_path / "one", frames=4, film=film, plot=False)
+    assert list(res.doc["methods"]) == ["right", "head"] and res.doc["film"]["frames"] == 4
+    assert mp4_complete(tmp_path / "one" / "film.mp4")
+
+
+def test_clip_names_become_valid_names_and_replay(tmp_path, capsys):
+    """``Walk 01.bvh`` gives the scene (and folder) name ``Walk_01``; the trajectory
+    reads back, fits the model it names (its digest) and replays with ``replay``."""
+    from humanoid_ik.experiments.retarget import clip_name
+
+    assert clip_name("Walk 01.bvh") == "Walk_01" and clip_name("~(a)~.bvh") == "a"
+    assert clip_name("...bvh") == "clip" and clip_name("x" * 150 + ".bvh") == "x" * 100
+    clip = tmp_path / "Walk 01.bvh"
+    clip.write_text(human_bvh("reach", seconds=0.1))
+    out = tmp_path / "o"
+    assert main(["retarget", str(clip), "--out", str(out), "--frames", "4", "--reach", "1"]) == 0
+    traj = load_trajectory(out / "trajectory.npz")
+    assert traj.scene == "Walk_01" and traj.n_frames == 4
+    assert json.loads((out / "metrics.json").read_text())["settings"]["reach"] == 1.0
+    from humanoid_ik.outputs.trajectory import open_trajectory
+
+    _, _, digest = open_trajectory(out / "trajectory.npz")
+    assert digest == traj.model_sha256
+    rep = tmp_path / "rep"
+    args = ["replay", str(out / "trajectory.npz"), "--out", str(rep), "--no-video"]
+    assert main([*args, "--width", "160", "--height", "120"]) == 0
+    assert "Walk_01: replayed 4 frame(s)" in capsys.readouterr().out
+    assert (rep / "contact_sheet.png").is_file()
+
+
+def test_cli_reach_and_film_arguments_in_one_line(tmp_path, capsys):
+    clip = _clip(tmp_path, "wave", 4)
+    for args, message in [
+        (["--reach", "1.5"], "argument --reach: expected a fraction from 0.5 to 1, got '1.5'"),
+        (["--width", "320"], "--width and --height size the film: add --film"),
+        (["--workers", "2"], "--workers and --ray run the clips of a folder"),
+        (["--film", "--width", "33"], "--width: expected an even integer"),
+    ]:
+        assert main(["retarget", str(clip), "--out", str(tmp_path / "o"), *args]) != 0
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
+def test_folder_on_the_local_pool_resumes_and_names_clips(tmp_path, capsys):
+    """Three short clips (one named ``Walk 01.bvh``) on two workers: every row in the
+    summary, in name order, each clip in its folder; run again, all three skipped.
+    Two clips whose names make one folder are refused before anything runs."""
+    src = tmp_path / "clips"
+    src.mkdir()
+    (src / "a.bvh").write_text(human_bvh("wave", seconds=0.1))
+    (src / "Walk 01.bvh").write_text(human_bvh("reach", style="mixamo", seconds=0.1))
+    (src / "c.bvh").write_text(human_bvh("arm_circles", up="z", units="m", seconds=0.1))
+    out = tmp_path / "out"
+    args = ["retarget", str(src), "--out", str(out), "--frames", "6", "--no-plot"]
+    assert main([*args, "--workers", "2"]) == 0
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert [r.split(",")[:3] for r in rows[1:]] == [
+        ["Walk 01.bvh", "ok", "6"],
+        ["a.bvh", "ok", "6"],
+        ["c.bvh", "ok", "6"],
+    ]
+    for name in ("Walk_01", "a", "c"):
+        assert load_trajectory(out / name / "trajectory.npz").n_frames == 6
+    capsys.readouterr()
+    assert main([*args, "--workers", "2"]) == 0
+    assert capsys.readouterr().out.count("skipped (done)") == 3
+    (src / "Walk_01.bvh").write_text(human_bvh("wave", seconds=0.1))
+    assert main(args) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'Walk 01.bvh' and 'Walk_01.bvh' both make the output" in err[0]

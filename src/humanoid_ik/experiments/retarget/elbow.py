@@ -1,9 +1,20 @@
-"""The elbow's direction: measured on a robot arm, turned into ``closed_form``'s swivel,
-chosen among ``two_link``'s solutions, or reached by null-space steps (``lm`` arms).
+"""The human elbow's direction on a robot arm, in the solvers' terms.
 
-The elbow's direction is the unit offset of the elbow point from the shoulder-wrist
-line (:meth:`RobotArm.points`); two directions are compared by the angle between them
-once both are projected normal to the robot's shoulder-wrist line.
+The arm's shoulder, elbow and wrist points and "the elbow points at a pole" are the
+solvers' (:mod:`humanoid_ik.solvers.analytic.elbow`: :func:`arm_points`,
+:func:`pole_angle`); a wanted elbow *direction* ``d`` (a unit offset from the
+shoulder-wrist line, :mod:`.targets`) is the pole ``S + d`` (:func:`pole_for`). What a
+retarget adds:
+
+- :func:`elbow_error`: the pole's angle to the elbow's plane and how bent the arm is
+  (below :data:`~.targets.BENT` the direction is not measured);
+- :func:`swivel_for`: ``closed_form``'s swivel (its own frame, ``swivel_frame``) that
+  points the elbow along a direction: the swivel plan (:mod:`.plan`) and the partial
+  pull of a frame need the angle itself, not only the pole;
+- :func:`elbow_steps`: the partial pull of an ``lm`` arm, before its solve: one
+  weighted null-space step, where ``lm``'s own :func:`~humanoid_ik.solvers.jacobian.lm.pole_steps`
+  would turn the elbow all the way after it (a frame's pull is halved within the speed
+  limits, and the first frame's is the full one: there ``Target.pole`` is used).
 """
 
 from __future__ import annotations
@@ -13,13 +24,52 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import rotation_log
-from humanoid_ik.experiments.retarget.robot import RobotArm
+from humanoid_ik.solvers.analytic.closed_form.geometry import arm_context
+from humanoid_ik.solvers.analytic.closed_form.numeric import FLOATS
+from humanoid_ik.solvers.analytic.closed_form.swivel import swivel_frame, wrist_target
+from humanoid_ik.solvers.analytic.elbow import arm_points, elbow_frame, pole_angle
 
-__all__ = ["elbow_angle", "elbow_steps", "swivel_for"]
+__all__ = ["elbow_error", "elbow_steps", "pole_for", "swivel_for"]
 
-_DOWN = np.array([0.0, 0.0, -1.0])
-_X = np.array([1.0, 0.0, 0.0])
+
+def pole_for(chain: Chain, want: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The pole ``(3,)`` [m] that asks for the elbow direction ``want``: the shoulder
+    point plus it."""
+    return np.asarray(arm_points(chain).shoulder + want)
+
+
+def elbow_error(chain: Chain, want: NDArray[np.float64]) -> tuple[float, float]:
+    """(the angle [rad] between the elbow's half-plane now and that of ``want`` about the
+    shoulder-wrist line, :func:`pole_angle`; the elbow's distance from that line over the
+    upper arm's length); the angle is NaN for a straight arm."""
+    pts = arm_points(chain)
+    S, E, W = pts
+    up = E - S
+    line = W - S
+    u = line / max(float(np.linalg.norm(line)), 1e-12)
+    bend = float(np.linalg.norm(up - float(up @ u) * u) / max(float(np.linalg.norm(up)), 1e-12))
+    return pole_angle(pts, S + want), bend
+
+
+def swivel_for(
+    chain: Chain, position: NDArray, rotation: NDArray | None, want: NDArray[np.float64]
+) -> float:
+    """The ``closed_form`` swivel [rad] that points the elbow along ``want`` for a hand at
+    ``position`` (``rotation``: a pose target, whose wrist point the swivel turns about),
+    in ``closed_form``'s own frame (:func:`swivel_frame`: 0 on the side of the line
+    facing gravity), as its pole search starts from a pole."""
+    ctx = arm_context(chain)
+    S = ctx.S
+    if rotation is not None:
+        t = wrist_target(ctx, position.tolist(), rotation.tolist())
+    else:
+        t = (float(position[0]) - S[0], float(position[1]) - S[1], float(position[2]) - S[2])
+    n, r, k = swivel_frame(FLOATS, ctx, t, ctx.rest)
+    x = float(want[0] * r[0] + want[1] * r[1] + want[2] * r[2])
+    y = float(want[0] * k[0] + want[1] * k[1] + want[2] * k[2])
+    return math.atan2(y, x)
 
 
 def _normal(v: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.float64] | None:
@@ -28,66 +78,35 @@ def _normal(v: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.float6
     return None if r < 1e-9 else p / r
 
 
-def elbow_angle(arm: RobotArm, want: NDArray[np.float64]) -> tuple[float, float]:
-    """(angle [rad] between the arm's elbow direction now and ``want``, the elbow's
-    distance from the shoulder-wrist line over the upper arm's length); the angle is
-    NaN for a straight arm."""
-    S, E, W = arm.points()
-    line = W - S
-    n = line / max(float(np.linalg.norm(line)), 1e-12)
-    up = E - S
-    have = _normal(up, n)
-    d = _normal(want, n)
-    bend = float(np.linalg.norm(up - float(up @ n) * n) / max(float(np.linalg.norm(up)), 1e-12))
-    if have is None or d is None:
-        return math.nan, bend
-    return math.acos(max(-1.0, min(1.0, float(have @ d)))), bend
-
-
-def swivel_for(
-    arm: RobotArm, position: NDArray, rotation: NDArray | None, want: NDArray[np.float64]
-) -> float:
-    """The ``closed_form`` swivel [rad] that puts the elbow towards ``want`` for a hand
-    at ``position``/``rotation``: ``closed_form``'s convention (0 on the side of the
-    shoulder-wrist line facing gravity, ``-z``; world ``x`` for a vertical line; turning
-    right-handed about shoulder -> wrist); the wrist point is the target's (pose) or the
-    hand position (position targets)."""
-    W = position if rotation is None else position + rotation @ arm.wrist_offset
-    line = W - arm.shoulder
-    n = line / max(float(np.linalg.norm(line)), 1e-12)
-    ref = _normal(_DOWN, n)
-    if ref is None:
-        ref = _normal(_X, n)
-    d = _normal(want, n)
-    if ref is None or d is None:
-        return 0.0
-    return math.atan2(float(n @ np.cross(ref, d)), float(ref @ d))
-
-
 def _damped_pinv(J: NDArray[np.float64], lam: float) -> NDArray[np.float64]:
     return np.asarray(J.T @ np.linalg.solve(J @ J.T + lam * np.eye(J.shape[0]), np.eye(J.shape[0])))
 
 
 def elbow_steps(
-    arm: RobotArm,
+    chain: Chain,
     q: NDArray[np.float64],
     position: NDArray[np.float64],
     rotation: NDArray[np.float64] | None,
     want: NDArray[np.float64],
     steps: int,
     weight: float = 1.0,
+    free: int | None = None,
 ) -> NDArray[np.float64]:
     """``steps`` Gauss-Newton steps from ``q`` towards the hand target (the primary task)
-    with the elbow turned towards ``want`` in the hand task's null space (the secondary
-    one); each elbow step asks for at most 0.3 of the elbow's distance from its line,
-    times ``weight`` (0: the hand alone).
+    with the elbow turned about the shoulder-wrist line towards ``want``'s half-plane in
+    the hand task's null space (the secondary one, as ``pole_steps``); each elbow step
+    turns it by at most 0.3 rad, times ``weight`` (0: the hand alone). Only the first
+    ``free`` joints move (default all; the first frame's start holds the wrist), the
+    elbow is the whole arm's.
     Returns the joint values (inside the ranges); the chain is left at them."""
-    c, k = arm.chain, arm.elbow
+    c = chain
+    frame = elbow_frame(c)
+    k = frame.elbow
+    n = c.n if free is None else free
     q = q.copy()
-    n_j = c.n
     for _ in range(steps):
         c.set_q(q)
-        J = c.current_jacobian()
+        J = c.current_jacobian()[:, :n]
         e = np.empty(6)
         e[:3] = position - c.position
         if rotation is not None:
@@ -97,26 +116,26 @@ def elbow_steps(
             e, Jh = e[:3], J[:3]
         Jp = _damped_pinv(Jh, 1e-8)
         dq = Jp @ e
-        S, E, W = arm.points()
-        line = W - S
-        n = line / max(float(np.linalg.norm(line)), 1e-12)
+        S, E, W = frame.points(c)
+        u = (W - S) / max(float(np.linalg.norm(W - S)), 1e-12)
         up = E - S
-        along = float(up @ n)
-        r = float(np.linalg.norm(up - along * n))
-        d = _normal(want, n)
-        if d is not None and r > 1e-6 and k > 0 and weight > 0:
-            goal = S + along * n + r * d
-            err = goal - E
-            size = float(np.linalg.norm(err))
-            if size > 0.3 * r:
-                err *= 0.3 * r / size
-            err *= weight
+        a, b = _normal(up, u), _normal(want, u)
+        if a is not None and b is not None and k > 0 and weight > 0:
+            # the elbow turned about u from a towards b: E - S = (along) u + r a, and
+            # the turn by t moves r a to r (a cos t + (u x a) sin t)
+            ua = np.array(
+                [u[1] * a[2] - u[2] * a[1], u[2] * a[0] - u[0] * a[2], u[0] * a[1] - u[1] * a[0]]
+            )
+            err = math.atan2(float(ua @ b), float(a @ b))
+            turn = weight * math.copysign(min(abs(err), 0.3), err)
+            r = float(up @ a)  # a: the unit normal part of up
+            dE = r * ((math.cos(turn) - 1.0) * a + math.sin(turn) * ua)
             anchors, axes = c.joint_axes()
-            JE = np.zeros((3, n_j))
+            JE = np.zeros((3, n))
             JE[:, :k] = np.cross(axes[:k], E - anchors[:k]).T
-            N = np.eye(n_j) - Jp @ Jh
-            JEN = JE @ N
-            dq = dq + N @ (_damped_pinv(JEN, 1e-6) @ (err - JE @ dq))
-        q = c.clip(q + dq)
+            N = np.eye(n) - Jp @ Jh
+            dq = dq + N @ (_damped_pinv(JE @ N, 1e-6) @ (dE - JE @ dq))
+        q[:n] += dq
+        q = c.clip(q)
     c.set_q(q)
     return q

@@ -5,42 +5,55 @@ Files of one clip (``staged_outputs``: they replace the previous run's as one se
 ``trajectory.npz``/``trajectory.csv`` (the robot's motion, as any run's: one effector
 per hand, ``reach``, and the gaze, ``look_at``), ``keys.xml`` (MuJoCo keyframes, one per
 frame), ``metrics.csv`` (per frame, :mod:`.metrics`), ``metrics.json`` (what was
-mapped, the settings and the summary) and ``metrics.png``.
+mapped, the settings and the summary) and ``metrics.png``; with a film, ``film.mp4``,
+the ``frame_NNNN.png`` snapshots and ``contact_sheet.png`` (the robot and the human
+skeleton beside it, ``outputs/render/skeleton.py``).
+
+A clip's name (the trajectory's scene, a folder run's output folder) is the file's stem
+made a :data:`~humanoid_ik.core.names.NAME` (:func:`clip_name`).
 """
 
 from __future__ import annotations
 
-import csv
-import io
-import json
 import math
 import os
+import re
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.limbs import profile_for
 from humanoid_ik.core.measures import ON_TARGET_ANGLE, ON_TARGET_DISTANCE, gaze_error
 from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model, model_file
+from humanoid_ik.core.names import MAX_NAME, name_ok
 from humanoid_ik.core.robot import joint_name
-from humanoid_ik.errors import HumanoidIKError, RetargetError
-from humanoid_ik.experiments.retarget.elbow import elbow_angle
-from humanoid_ik.experiments.retarget.human import Mapping, find_human
+from humanoid_ik.errors import RetargetError
+from humanoid_ik.experiments.retarget.elbow import elbow_error
+from humanoid_ik.experiments.retarget.human import HumanSide, Mapping, find_human
 from humanoid_ik.experiments.retarget.metrics import FrameTable, jerk, plot_retarget
 from humanoid_ik.experiments.retarget.robot import RobotSide, model_label
 from humanoid_ik.experiments.retarget.solve import Retargeter
 from humanoid_ik.experiments.retarget.targets import BENT, REACH, Targets, scaled_targets
-from humanoid_ik.motion.bvh import read_bvh
+from humanoid_ik.motion.bvh import BVHClip, read_bvh
 from humanoid_ik.outputs.atomic import published, staged_outputs, write_json, write_text
 from humanoid_ik.outputs.keyframes import keyframes_xml
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.trajectory import EffectorTrack, Trajectory, qpos_names
 
-__all__ = ["CLIP_FILES", "SUMMARY_FIELDS", "RetargetResult", "done", "retarget", "retarget_folder"]
+__all__ = [
+    "CLIP_FILES",
+    "FILM",
+    "FILM_FILES",
+    "RetargetResult",
+    "clip_name",
+    "retarget",
+    "clip_settings",
+]
 
 CLIP_FILES = (
     "keys.xml",
@@ -51,6 +64,19 @@ CLIP_FILES = (
     "trajectory.npz",
 )
 """The files one clip's retarget writes (``metrics.png`` only with the plot)."""
+FILM_FILES = ("contact_sheet.png", "film.mp4")
+"""... and with a film (besides its ``frame_NNNN.png`` snapshots)."""
+FILM = RenderSpec(width=480, height=360)
+"""The film's defaults (``--film``): small, the front camera, trails, four snapshots."""
+
+
+def clip_name(path: str | os.PathLike[str]) -> str:
+    """The name of the clip at ``path``: its stem with every character a
+    :data:`~humanoid_ik.core.names.NAME` may not hold replaced by ``_``, the ends trimmed
+    of ``_``, ``.`` and ``-``, at most :data:`~humanoid_ik.core.names.MAX_NAME` characters
+    (``Walk 01.bvh`` -> ``Walk_01``; ``clip`` when nothing is left)."""
+    name = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(path).stem)[:MAX_NAME].strip("_.-")
+    return name if name_ok(name) else "clip"
 
 
 @dataclass
@@ -73,7 +99,7 @@ def _angle(R: np.ndarray, T: np.ndarray) -> float:
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
 
 
-def _settings(
+def clip_settings(
     clip_path: Path,
     model: str | os.PathLike[str] | None,
     solver: str,
@@ -81,11 +107,15 @@ def _settings(
     mapping: str | os.PathLike[str] | None,
     limbs: str | os.PathLike[str] | None,
     packages: dict[str, Path] | None,
+    reach: float = REACH,
+    film: RenderSpec | None = None,
 ) -> dict[str, Any]:
+    """What a clip's outputs were made with (``metrics.json``; a folder run skips a clip
+    whose outputs were made with the same)."""
     mpath = model_file(model)
     import hashlib
 
-    return {
+    out: dict[str, Any] = {
         "clip": str(clip_path),
         "clip_sha256": hashlib.sha256(clip_path.read_bytes()).hexdigest()[:16]
         if clip_path.is_file()
@@ -97,6 +127,11 @@ def _settings(
         "mapping": None if mapping is None else str(mapping),
         "limbs": None if limbs is None else str(limbs),
     }
+    if reach != REACH:
+        out["reach"] = reach
+    if film is not None:
+        out["film"] = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(film).items()}
+    return out
 
 
 def retarget(
@@ -111,6 +146,7 @@ def retarget(
     limbs: str | os.PathLike[str] | None = None,
     plot: bool = True,
     reach: float = REACH,
+    film: RenderSpec | None = None,
 ) -> RetargetResult:
     """Retarget the BVH clip ``clip_path`` onto ``model`` (a model file, ``None``: the
     bundled humanoid) and write its files into ``out_dir`` (``None``: nothing written).
@@ -125,16 +161,20 @@ def retarget(
         plot: write ``metrics.png``.
         reach: the fraction of the robot's full-stretch arm length the human's full arm
             length maps onto (:data:`~.targets.REACH`).
+        film: film the robot with the human skeleton beside it (``film.mp4``, snapshots,
+            contact sheet: :data:`FILM` is a small one); ``None``: no film.
 
     Raises:
         BVHError: a bad BVH file, or a skeleton without arms.
         RetargetError: a bad mapping file or solver, a robot without arms.
         ModelError: a bad model file.
+        RenderError: no OpenGL backend works, or the film's size or camera does not fit
+            the model (nothing is written then).
     """
     clip_path = Path(clip_path)
-    settings = _settings(clip_path, model, solver, frames, mapping, limbs, packages)
-    if reach != REACH:
-        settings["reach"] = reach
+    settings = clip_settings(
+        clip_path, model, solver, frames, mapping, limbs, packages, reach, film
+    )
     if frames is not None and frames < 1:
         raise RetargetError(f"frames must be at least 1, got {frames}")
     if not (isinstance(reach, (int, float)) and 0.5 <= reach <= 1.0):
@@ -180,12 +220,66 @@ def retarget(
             write_trajectory(traj, staging)
             write_text(staging / "keys.xml", keyframes_xml(traj))
             write_text(staging / "metrics.csv", table.csv_text())
-            write_json(staging / "metrics.json", doc)
             if plot:
-                title = f"{clip_path.stem} on {model_label(model)} ({solver})"
+                title = f"{traj.scene} on {model_label(model)} ({solver})"
                 plot_retarget(table, title, staging / "metrics.png")
+            if film is not None:
+                arms = list(solver_.arms)
+                doc["film"] = _film(clip, human, robot, arms, traj, film, staging, packages)
+            write_json(staging / "metrics.json", doc)
         files = [out / n for n in published(out)]
     return RetargetResult(doc, files, traj, table)
+
+
+def _film(
+    clip: BVHClip,
+    human: HumanSide,
+    robot: RobotSide,
+    arms: list[str],
+    traj: Trajectory,
+    render: RenderSpec,
+    folder: Path,
+    packages: dict[str, Path] | None,
+) -> dict[str, Any]:
+    """Film ``traj`` with the human skeleton beside the robot into ``folder`` (the
+    staging folder); what ``metrics.json`` says of it. The skeleton is scaled by the
+    mean arm lengths of the mapped arms, about the midpoint of their shoulders (one
+    shoulder for a one-armed mapping), put at the robot's (``human_skeleton``).
+
+    Raises:
+        KeyboardInterrupt: Ctrl-C stopped the film (the set is then not published).
+    """
+    from humanoid_ik.outputs.render.skeleton import (
+        beside_robot,
+        film_with_skeleton,
+        human_skeleton,
+    )
+
+    m = robot.model
+    forward = robot.heading[:, 0]
+    X = human_skeleton(
+        clip.positions[: traj.n_frames],
+        shoulders=tuple(human.arms[s].shoulder for s in arms),
+        human_arm=float(np.mean([human.arms[s].length for s in arms])),
+        robot_shoulders=[robot.arms[s].shoulder for s in arms],
+        robot_arm=float(np.mean([robot.arms[s].length for s in arms])),
+        forward=forward,
+        heading_pair=human.heading_pair,
+    )
+    X = beside_robot(X, m, traj.qpos, forward)
+    out = film_with_skeleton(
+        traj, m, X, clip.skeleton.parents, folder, render=render, name="film",
+        packages=packages,
+    )  # fmt: skip
+    if out.interrupted:
+        raise KeyboardInterrupt
+    return {
+        "frames": out.frames,
+        "size": [render.width, render.height],
+        "camera": render.camera,
+        "files": sorted(p.name for p in out.files()),
+        "notes": list(out.notes),
+    }
 
 
 def _run(r: Retargeter, robot: RobotSide, targets: Targets, dt: float):
@@ -210,7 +304,7 @@ def _run(r: Retargeter, robot: RobotSide, targets: Targets, dt: float):
             ep = float(np.linalg.norm(p - t.position[f]))
             er = _angle(R, t.rotation(f)) if arm.pose else math.nan
             ok = float(np.linalg.norm(t.position[f] - arm.shoulder)) <= arm.length
-            ang, bend = elbow_angle(arm, t.elbow[f])
+            ang, bend = elbow_error(c, t.elbow[f])
             elbow = math.degrees(ang) if min(bend, float(t.bend[f])) >= BENT else math.nan
             row |= {
                 f"{side}_position_error_m": ep,
@@ -332,133 +426,8 @@ def _trajectory(
         joint_names=tuple(joint_name(m, j) for j in range(m.njnt)),
         effectors=tuple(tracks),
         fps=1.0 / dt,
-        scene=clip_path.stem,
+        scene=clip_name(clip_path),
         scene_file=str(clip_path),
         model_file=settings["model"],
         model_sha256=settings["model_sha256"],
     )
-
-
-# ----------------------------------------------------------------------------- folders
-SUMMARY_FIELDS = (
-    "clip",
-    "status",
-    "frames",
-    "left_median_mm",
-    "left_p99_mm",
-    "right_median_mm",
-    "right_p99_mm",
-    "elbow_median_deg",
-    "gaze_median_deg",
-    "frames_out_of_range",
-    "frames_over_speed_limit",
-    "collision_frames",
-    "qp_fallback_frames",
-    "frames_per_s_cpu",
-    "error",
-)
-"""The columns of a folder's ``summary.csv``."""
-
-
-def done(folder: Path, settings: dict[str, Any]) -> bool:
-    """Whether ``folder`` holds a complete set of a clip's outputs made with ``settings``."""
-    names = set(published(folder))
-    if not {n for n in CLIP_FILES if n != "metrics.png"} <= names:
-        return False
-    try:
-        doc = json.loads((folder / "metrics.json").read_text())
-    except (OSError, ValueError):
-        return False
-    return bool(doc.get("settings") == settings) and all((folder / n).is_file() for n in names)
-
-
-def _row(clip: str, status: str, doc: dict[str, Any] | None, error: str = "") -> dict[str, Any]:
-    row: dict[str, Any] = {"clip": clip, "status": status, "error": error}
-    if doc is None:
-        return row
-    s = doc["summary"]
-    row["frames"] = s["frames"]
-    elbows = []
-    for side in ("left", "right"):
-        if side in s:
-            pe = s[side]["position_error_reachable_m"]
-            row[f"{side}_median_mm"] = None if pe["median"] is None else pe["median"] * 1e3
-            row[f"{side}_p99_mm"] = None if pe["p99"] is None else pe["p99"] * 1e3
-            if s[side]["elbow_error_deg"]["median"] is not None:
-                elbows.append(s[side]["elbow_error_deg"]["median"])
-    row["elbow_median_deg"] = max(elbows) if elbows else None
-    row["gaze_median_deg"] = s.get("gaze_error_deg", {}).get("median")
-    for k in (
-        "frames_out_of_range",
-        "frames_over_speed_limit",
-        "collision_frames",
-        "qp_fallback_frames",
-        "frames_per_s_cpu",
-    ):
-        row[k] = s[k]
-    return row
-
-
-def retarget_folder(
-    folder: str | os.PathLike[str],
-    model: str | os.PathLike[str] | None,
-    out_dir: str | os.PathLike[str],
-    *,
-    progress: Any = None,
-    **options: Any,
-) -> tuple[list[dict[str, Any]], Path]:
-    """Retarget every ``.bvh`` of ``folder`` (sorted by name) into ``out_dir/<stem>/``,
-    one after the other (each clip is one process's work for a few seconds: a pool's
-    start-up would cost more than it saves on a folder of short clips), skipping a clip
-    whose outputs are complete and were made with the same settings; a clip that fails
-    is a row with its one-line error, and the others run. Writes ``out_dir/summary.csv``.
-
-    Args:
-        progress: called as ``progress(clip, status)`` after each clip.
-        options: :func:`retarget`'s keyword arguments.
-
-    Returns:
-        The summary rows and the summary file.
-
-    Raises:
-        RetargetError: ``folder`` holds no ``.bvh`` file.
-    """
-    src, out = Path(folder), Path(out_dir)
-    clips = sorted(p for p in src.iterdir() if p.suffix.lower() == ".bvh" and p.is_file())
-    if not clips:
-        raise RetargetError(f"folder '{src}' holds no .bvh file")
-    out.mkdir(parents=True, exist_ok=True)
-    rows = []
-    keys = ("solver", "frames", "mapping", "limbs", "packages", "reach")
-    for clip in clips:
-        dest = out / clip.stem
-        try:
-            settings = _settings(
-                clip,
-                model,
-                options.get("solver", "auto"),
-                options.get("frames"),
-                options.get("mapping"),
-                options.get("limbs"),
-                options.get("packages"),
-            )
-            if options.get("reach", REACH) != REACH:
-                settings["reach"] = options["reach"]
-            if done(dest, settings):
-                doc = json.loads((dest / "metrics.json").read_text())
-                rows.append(_row(clip.name, "skipped (done)", doc))
-            else:
-                given = {k: options[k] for k in keys if k in options}
-                res = retarget(clip, model, dest, plot=options.get("plot", True), **given)
-                rows.append(_row(clip.name, "ok", res.doc))
-        except HumanoidIKError as exc:
-            rows.append(_row(clip.name, "failed", None, str(exc)))
-        if progress is not None:
-            progress(clip.name, rows[-1]["status"])
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=SUMMARY_FIELDS, lineterminator="\n")
-    w.writeheader()
-    for row in rows:
-        w.writerow({k: "" if row.get(k) is None else row.get(k) for k in SUMMARY_FIELDS})
-    path = write_text(out / "summary.csv", buf.getvalue())
-    return rows, path

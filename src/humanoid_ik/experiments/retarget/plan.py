@@ -67,7 +67,7 @@ def plan_swivels(
     quats = np.empty((len(keys), 4))
     for i, f in enumerate(keys.tolist()):
         R = targets.rotation(f) if arm.pose else None
-        want[i] = swivel_for(arm, targets.position[f], R, targets.elbow[f])
+        want[i] = swivel_for(c, targets.position[f], R, targets.elbow[f])
         quats[i] = mat_to_quat(R) if R is not None else (1.0, 0.0, 0.0, 0.0)
     w = ELBOW_WEIGHT * elbow_weight(targets.bend[keys])
     K = len(keys)
@@ -110,7 +110,7 @@ def plan_swivels(
     near = np.empty(F)
     for f in range(F):
         R = targets.rotation(f) if arm.pose else None
-        near[f] = swivel_for(arm, targets.position[f], R, targets.elbow[f]) - psi[f]
+        near[f] = swivel_for(c, targets.position[f], R, targets.elbow[f]) - psi[f]
     near = np.remainder(near + math.pi, 2 * math.pi) - math.pi
     half = math.pi / GRID * 2
     psi = psi + elbow_weight(targets.bend[:F]) * np.clip(near, -half, half)

@@ -3,14 +3,12 @@ geometry (shoulder, elbow, wrist, reach), the joint speed limits and the self-co
 pairs.
 
 - **Arms**: ``left_arm`` and ``right_arm`` of the limb profile (``core/limbs.py``),
-  without the torso. An arm's *shoulder point* is where its joints before the elbow
-  turn about (the least-squares meeting point of their axes at home: exact where they
-  meet, the middle of the offsets where they do not, as on G1 and Talos); its *elbow*
-  the joint with ``elbow`` in its name, else the one whose anchor is farthest from
-  both the first and the last joint's; its *wrist point* the meeting point of the
-  joints after the elbow (the end frame itself for an arm without a wrist). Its length
-  is its length at full stretch: the largest distance from the shoulder point to the end
-  frame over the elbow's range, the other joints at home.
+  without the torso. An arm's elbow joint, *shoulder point* and *wrist point* are the
+  solvers' (:mod:`humanoid_ik.solvers.analytic.elbow`, the one definition an elbow pole
+  is honoured by: :func:`~humanoid_ik.solvers.analytic.elbow.arm_points`); the shoulder
+  point is taken at home (fixed: no torso moves). Its length is its length at full
+  stretch: the largest distance from the shoulder point to the end frame over the
+  elbow's range, the other joints at home.
 - **Head**: the ``head`` limb's chain and gaze axis when it has joints; a fixed head
   (G1) is no effector.
 - **Speed limits**: a URDF's ``<limit velocity>`` per joint (MuJoCo's URDF compiler does
@@ -38,10 +36,10 @@ from numpy.typing import NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.limbs import Profile, limb_chain
 from humanoid_ik.core.models import home_qpos
-from humanoid_ik.core.names import name_words
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.errors import RetargetError
 from humanoid_ik.experiments.retarget.human import SIDES
+from humanoid_ik.solvers.analytic.elbow import arm_points, elbow_frame
 from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
 
 __all__ = ["DEFAULT_SPEED", "RobotArm", "RobotSide", "urdf_speeds"]
@@ -74,18 +72,6 @@ def urdf_speeds(path: str | os.PathLike[str] | None) -> dict[str, float]:
     return out
 
 
-def _meeting(anchors: NDArray[np.float64], axes: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The least-squares point nearest every axis line (their mean anchor if parallel)."""
-    M, b = np.zeros((3, 3)), np.zeros(3)
-    for a, u in zip(anchors, axes, strict=True):
-        P = np.eye(3) - np.outer(u, u)
-        M += P
-        b += P @ a
-    if len(anchors) < 2 or np.linalg.cond(M) > 1e9:
-        return np.asarray(anchors.mean(axis=0))
-    return np.asarray(np.linalg.solve(M, b))
-
-
 @dataclass
 class RobotArm:
     """One robot arm: its chain and the geometry a retarget uses.
@@ -93,7 +79,7 @@ class RobotArm:
     Attributes:
         side: ``left`` or ``right``.
         chain: the arm's chain (shoulder to the end frame).
-        elbow: the elbow joint's index in the chain.
+        elbow: the elbow joint's index in the chain (the solvers' ``elbow_frame``).
         shoulder: the shoulder point at home ``(3,)`` [m] (world; fixed: no torso moves).
         wrist_offset: the wrist point in the end frame ``(3,)`` [m].
         length: the arm's length at full stretch [m]: the largest distance from the
@@ -111,24 +97,6 @@ class RobotArm:
     length: float
     pose: bool
     speed: NDArray[np.float64]
-
-    def points(self) -> tuple[NDArray, NDArray, NDArray]:
-        """Shoulder, elbow and wrist points ``(3,)`` at the chain's current kinematics."""
-        c = self.chain
-        elbow = np.array(c.data.xanchor[c.joint_ids[self.elbow]])
-        wrist = c.position + c.rotation @ self.wrist_offset
-        return self.shoulder, elbow, wrist
-
-
-def _elbow(model: mujoco.MjModel, chain: Chain) -> int:
-    for i, j in enumerate(chain.joint_ids):
-        if "elbow" in name_words(model.joint(int(j)).name):
-            return i
-    anchors, _ = chain.joint_axes()
-    far = np.minimum(
-        np.linalg.norm(anchors - anchors[0], axis=1), np.linalg.norm(anchors - anchors[-1], axis=1)
-    )
-    return int(np.argmax(far))
 
 
 def _stretch(chain: Chain, elbow: int, shoulder: NDArray[np.float64]) -> float:
@@ -180,13 +148,9 @@ class RobotSide:
             if name not in profile.limbs or not profile.limbs[name].joints:
                 continue
             c = limb_chain(self.robot, name, profile=profile)
-            c.set_q(c.clip(c.q_home))
-            k = _elbow(model, c)
-            anchors, axes = c.joint_axes()
-            shoulder = _meeting(anchors[:k], axes[:k]) if k > 0 else anchors[0]
-            after = anchors[k + 1 :]
-            wrist = _meeting(after, axes[k + 1 :]) if len(after) else c.position.copy()
-            off = c.rotation.T @ (wrist - c.position)
+            frame = elbow_frame(c)
+            k, off = frame.elbow, frame.wrist_local
+            shoulder = arm_points(c, c.clip(c.q_home)).shoulder
             reach = _stretch(c, k, shoulder)
             sp = np.array([speeds.get(n, DEFAULT_SPEED) for n in c.joint_names])
             self.arms[side] = RobotArm(side, c, k, shoulder, off, reach, c.n >= 6, sp)

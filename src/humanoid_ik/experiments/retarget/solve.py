@@ -8,10 +8,11 @@ Per arm, with ``solver="auto"`` (the exact solvers where ``auto`` would take the
   planned over the clip (:func:`~.plan.plan_swivels`: the human elbow's where it is
   bent, the least joint motion within the speed limits), exact;
 - a position target (an arm of fewer than 6 joints) on a chain ``two_link`` solves:
-  among ``two_link``'s solutions, the one whose elbow is nearest the human's;
+  ``two_link`` with the human elbow as its pole (``Target.pole``: the branch, and a
+  three-hinge shoulder's twist, that put the elbow in the pole's plane);
 - otherwise ``lm``, after :data:`ELBOW_STEPS` null-space steps that turn the elbow
-  towards the human's while tracking the hand (:func:`~.elbow.elbow_steps`; the first
-  frame takes :data:`FIRST_STEPS`).
+  towards the human's while tracking the hand (:func:`~.elbow.elbow_steps`, weighted by
+  the elbow's pull; the first frame takes :data:`FIRST_STEPS`).
 
 A pose the arm cannot reach (outside the ranges) is solved again for the position
 alone, with ``lm`` from that answer, so the hand stays on its path and only the
@@ -38,16 +39,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import RetargetError, choices
-from humanoid_ik.experiments.retarget.elbow import elbow_angle, elbow_steps, swivel_for
+from humanoid_ik.experiments.retarget.elbow import elbow_error, elbow_steps, pole_for, swivel_for
 from humanoid_ik.experiments.retarget.plan import plan_swivels
 from humanoid_ik.experiments.retarget.robot import RobotArm, RobotSide
 from humanoid_ik.experiments.retarget.speed import STEPS, bounded_solve
 from humanoid_ik.experiments.retarget.targets import STRAIGHT, Targets, rest_offset
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+from humanoid_ik.solvers.analytic.elbow import arm_points
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.base import error_buffers
@@ -154,24 +157,24 @@ class Retargeter:
             c = arm.chain
             home = c.clip(c.q_home)
             k = arm.elbow
-            sub = _sub_arm(arm, k + 1)
+            sub = _sub_chain(arm, k + 1)
             best: tuple[float, NDArray] | None = None
             for twist in START_TWISTS:
                 q = home.copy()
                 if k >= 1:
                     q[k - 1] += twist  # the joint before the elbow: the upper arm's twist
-                c.set_q(c.clip(q))
-                q_sub = elbow_steps(
-                    sub, c.clip(q)[: k + 1], t.position[0], None, t.elbow[0], FIRST_STEPS
+                q = elbow_steps(
+                    c, c.clip(q), t.position[0], None, t.elbow[0], FIRST_STEPS, free=k + 1
                 )
-                res = self._lm_start.solve(sub.chain, Target(t.position[0]), q_sub)
-                a, _ = elbow_angle(sub, t.elbow[0])
+                res = self._lm_start.solve(sub, Target(t.position[0]), q[: k + 1])
+                q[: k + 1] = res.q
+                c.set_q(q)
+                a, _ = elbow_error(c, t.elbow[0])
                 cost = res.position_error + 0.01 * (0.0 if math.isnan(a) else a)
                 if best is None or cost < best[0]:
-                    best = (cost, res.q)
+                    best = (cost, q)
             assert best is not None
-            q = home.copy()
-            q[: k + 1] = best[1]
+            q = best[1]
             c.set_q(q)
             rest_offset(t, c.rotation.copy())
             self.q[side] = q
@@ -246,9 +249,8 @@ class Retargeter:
                 return best[1], best[2]  # type: ignore[index]
         if self.method[side] == "closed_form" and f > 0:
             R = self.targets.arms[side].rotation(f) if arm.pose else None
-            arm.chain.set_q(q0)
-            S, E, _ = arm.points()
-            now = swivel_for(arm, t.position[f], R, E - S)
+            S, E, _ = arm_points(arm.chain, q0)
+            now = swivel_for(arm.chain, t.position[f], R, E - S)
             tgt = self.target(side, f)
             for d in SWIVEL_STEPS:
                 res = ClosedForm(swivel=now + d).solve(arm.chain, tgt, q0)
@@ -294,18 +296,18 @@ class Retargeter:
         c, how = arm.chain, self.method[side]
         if how == "closed_form" and w > 0.0:
             R = t.rotation(f) if arm.pose else None
-            c.set_q(q0)
-            S, E, _ = arm.points()
-            now = swivel_for(arm, t.position[f], R, E - S)
-            psi = swivel_for(arm, t.position[f], R, t.elbow[f])
+            S, E, _ = arm_points(c, q0)
+            now = swivel_for(c, t.position[f], R, E - S)
+            psi = swivel_for(c, t.position[f], R, t.elbow[f])
             psi = now + w * math.remainder(psi - now, 2.0 * math.pi)
             res = ClosedForm(swivel=psi).solve(c, tgt, q0)
         elif how == "two_link" and w > 0.0:
-            res = self._two_link_elbow(arm, tgt, q0, t.elbow[f])
+            c.set_q(q0)
+            res = self._two_link.solve(c, Target(tgt.position, pole=pole_for(c, t.elbow[f])), q0)
         else:
             how = "lm"
             R = t.rotation(f) if arm.pose else None
-            q = elbow_steps(arm, q0, t.position[f], R, t.elbow[f], ELBOW_STEPS, w)
+            q = elbow_steps(c, q0, t.position[f], R, t.elbow[f], ELBOW_STEPS, w)
             res = self._lm.solve(c, tgt, q)
         if not res.converged and tgt.is_pose:
             pos = self._lm.solve(c, Target(tgt.position), res.q)
@@ -313,20 +315,6 @@ class Retargeter:
                 res = pos.with_details(pose="position only: the pose is out of reach")
                 how += "+lm(position)"
         return res, how
-
-    def _two_link_elbow(self, arm: RobotArm, tgt: Target, q0: NDArray, want: NDArray) -> IKResult:
-        c = arm.chain
-        sols = [s for s in self._two_link.solutions(c, tgt, q0) if s.inside]
-        if not sols:
-            return self._two_link.solve(c, tgt, q0)
-        best, err = sols[0].q, math.inf
-        for s in sols:
-            c.set_q(s.q)
-            a, _ = elbow_angle(arm, want)
-            a = 0.0 if math.isnan(a) else a
-            if a < err - 1e-9:
-                best, err = s.q, a
-        return self._two_link.solve(c, tgt, best)
 
     # ------------------------------------------------------------------ limits
     def _limit(self, f: int, prev: dict[str, NDArray], out: FrameSolve) -> None:
@@ -390,14 +378,8 @@ class Retargeter:
             out.solver[name] = "mink"
 
 
-def _sub_arm(arm: RobotArm, n: int) -> RobotArm:
+def _sub_chain(arm: RobotArm, n: int) -> Chain:
     """The arm's first ``n`` joints (shoulder and elbow) to the same end frame: the wrist
     held where it is."""
-    from humanoid_ik.core.chain import Chain
-
     c = arm.chain
-    end = {c.ee_kind: c.ee_name}
-    sub = Chain(c.robot, joints=list(c.joint_names[:n]), **end)
-    return RobotArm(
-        arm.side, sub, arm.elbow, arm.shoulder, arm.wrist_offset, arm.length, False, arm.speed[:n]
-    )
+    return Chain(c.robot, joints=list(c.joint_names[:n]), **{c.ee_kind: c.ee_name})

@@ -1,5 +1,12 @@
 """Where a sweep's jobs run: a local process pool (the default) or a Ray cluster.
 
+A job is a sweep's :class:`~humanoid_ik.config.sweep_file.Job` run by
+:func:`~humanoid_ik.experiments.sweep.jobs.run_job` unless the caller names another
+``run`` (a picklable module-level function of one picklable job, returning its record)
+with its ``failed(job, exc)`` (the record of a job whose worker died) and the modules
+its workers should import once (``preload``): ``retarget FOLDER --workers N`` runs its
+clips so, on the same pool with the same guarantees.
+
 Both take the jobs to run and an ``on_done(job, record)`` callback that the calling
 process runs as each record comes back (in completion order), so results are written by
 one process and a Ray cluster needs no shared file system. A worker that dies gives a
@@ -35,7 +42,6 @@ from contextlib import contextmanager
 from multiprocessing.connection import Connection
 from typing import IO, Any
 
-from humanoid_ik.config.sweep_file import Job
 from humanoid_ik.errors import SweepError
 from humanoid_ik.experiments.sweep.jobs import failed_record, run_job
 
@@ -53,8 +59,12 @@ __all__ = [
     "run_ray",
 ]
 
-OnDone = Callable[[Job, dict[str, Any]], None]
+OnDone = Callable[[Any, dict[str, Any]], None]
 """``on_done(job, record)``, called in the calling process as each job finishes."""
+Run = Callable[[Any], dict[str, Any]]
+"""``run(job) -> record``: what a worker does with one job (picklable: module level)."""
+Failed = Callable[[Any, BaseException], dict[str, Any]]
+"""``failed(job, exc) -> record``: the record of a job whose worker died."""
 PRELOAD = (
     "humanoid_ik.experiments.sweep.jobs",
     "humanoid_ik.run.runner",
@@ -101,7 +111,14 @@ def die_with(owner: Connection) -> None:
 
 
 def run_local(
-    jobs: Sequence[Job], workers: int, on_done: OnDone, log: str | os.PathLike | None = None
+    jobs: Sequence[Any],
+    workers: int,
+    on_done: OnDone,
+    log: str | os.PathLike | None = None,
+    *,
+    run: Run = run_job,
+    failed: Failed = failed_record,
+    preload: Sequence[str] = PRELOAD,
 ) -> None:
     """Run ``jobs`` on ``workers`` local processes (forkserver, see :data:`PRELOAD`).
 
@@ -115,9 +132,11 @@ def run_local(
             being forked while the sweep is interrupted prints a traceback there, not
             on the caller's terminal); ``None`` leaves them the caller's stderr. Only a
             forkserver started by this call is redirected.
+        run, failed, preload: what a worker runs on a job, the record of a job whose
+            worker died, the modules the forkserver imports (default: a sweep's).
     """
     ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(list(PRELOAD))
+    ctx.set_forkserver_preload(list(preload))
     if log is not None:
         with open(log, "ab") as f, _stderr_into(f.fileno()):
             from multiprocessing import forkserver, resource_tracker
@@ -129,10 +148,10 @@ def run_local(
         with ProcessPoolExecutor(
             max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(watched,)
         ) as pool:
-            pending: dict[Future[dict[str, Any]], Job] = {}
+            pending: dict[Future[dict[str, Any]], Any] = {}
             try:
                 for job in jobs:
-                    pending[pool.submit(run_job, job)] = job
+                    pending[pool.submit(run, job)] = job
                 while pending:
                     done, _ = wait(pending, return_when=FIRST_COMPLETED)
                     for fut in done:
@@ -140,7 +159,7 @@ def run_local(
                         try:
                             rec = fut.result()
                         except Exception as exc:  # noqa: BLE001 - a dead worker
-                            rec = failed_record(job, exc)
+                            rec = failed(job, exc)
                         on_done(job, rec)
             except BaseException:  # Ctrl-C, even while the jobs are being submitted
                 for fut in pending:
@@ -250,7 +269,9 @@ def _can_own_a_group() -> bool:
     return hasattr(os, "killpg") and hasattr(os, "setsid")
 
 
-def _run_ray_local(jobs: Sequence[Job], workers: int | None, on_done: OnDone) -> None:
+def _run_ray_local(
+    jobs: Sequence[Any], workers: int | None, on_done: OnDone, how: tuple[Run, Failed]
+) -> None:
     """Run ``jobs`` on a local Ray instance of ``workers`` CPUs (default all) that a
     process of its own drives (``ray_head.py``), in a new session and so a process
     group that this process owns; records come back through a pipe.
@@ -274,18 +295,26 @@ def _run_ray_local(jobs: Sequence[Job], workers: int | None, on_done: OnDone) ->
             stderr=said,
             start_new_session=True,
         )
-        _drive(head, jobs, workers, on_done, said)
+        _drive(head, jobs, workers, on_done, said, how)
 
 
 def _drive(
-    head: subprocess.Popen, jobs: list[Job], workers: int | None, on_done: OnDone, said: IO[bytes]
+    head: subprocess.Popen,
+    jobs: list[Any],
+    workers: int | None,
+    on_done: OnDone,
+    said: IO[bytes],
+    how: tuple[Run, Failed],
 ) -> None:
     """Send ``jobs`` to the process ``head`` (``ray_head.py``), hand each record it
     sends back to ``on_done``, and end it (see :func:`_run_ray_local`)."""
     assert head.stdin is not None and head.stdout is not None
     try:
         try:
-            pickle.dump((workers or os.cpu_count() or 1, jobs), head.stdin)
+            sent: tuple[Any, ...] = (workers or os.cpu_count() or 1, jobs)
+            if how != (run_job, failed_record):  # ray_head.py runs a sweep's by default
+                sent = (*sent, *how)
+            pickle.dump(sent, head.stdin)
             head.stdin.flush()
         except BrokenPipeError:
             pass  # it ended already: reading says so
@@ -318,7 +347,15 @@ def _drive(
         head.stdout.close()
 
 
-def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnDone) -> None:
+def run_ray(
+    jobs: Sequence[Any],
+    workers: int | None,
+    address: str,
+    on_done: OnDone,
+    *,
+    run: Run = run_job,
+    failed: Failed = failed_record,
+) -> None:
     """Run ``jobs`` as Ray tasks (1 CPU each, no retries).
 
     Args:
@@ -331,6 +368,7 @@ def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnD
             process groups are missing, Windows, Ray is started in this process and
             Ray's own fate-sharing applies).
         on_done: called as each record comes back.
+        run, failed: as :func:`run_local`'s.
 
     Raises:
         SweepError: Ray is not installed, cannot start, or cannot join the cluster at
@@ -338,16 +376,22 @@ def run_ray(jobs: Sequence[Job], workers: int | None, address: str, on_done: OnD
     """
     ray = import_ray(address)
     if address == "local" and not ray.is_initialized() and _can_own_a_group():
-        _run_ray_local(jobs, workers, on_done)
+        _run_ray_local(jobs, workers, on_done, (run, failed))
     else:
-        _run_ray(ray, jobs, workers, address, on_done)
+        _run_ray(ray, jobs, workers, address, on_done, (run, failed))
 
 
-def ray_dispatch(ray: Any, jobs: Sequence[Job], on_done: Callable[[int, Any], None]) -> None:
-    """Every job as a Ray task (one CPU, no retries), ``on_done(index, record)`` as each
-    ends; a task that fails (a dead worker or node) gets :func:`failed_record`. Used in
-    the sweep's process and in a local Ray's own (``ray_head.py``)."""
-    task = ray.remote(num_cpus=1, max_retries=0)(run_job)
+def ray_dispatch(
+    ray: Any,
+    jobs: Sequence[Any],
+    on_done: Callable[[int, Any], None],
+    run: Run = run_job,
+    failed: Failed = failed_record,
+) -> None:
+    """Every job as a Ray task (one CPU, no retries) of ``run``, ``on_done(index,
+    record)`` as each ends; a task that fails (a dead worker or node) gets ``failed``'s
+    record. Used in the sweep's process and in a local Ray's own (``ray_head.py``)."""
+    task = ray.remote(num_cpus=1, max_retries=0)(run)
     pending = {task.remote(job): i for i, job in enumerate(jobs)}
     while pending:
         done, _ = ray.wait(list(pending), num_returns=1)
@@ -356,19 +400,24 @@ def ray_dispatch(ray: Any, jobs: Sequence[Job], on_done: Callable[[int, Any], No
             try:
                 rec = ray.get(ref)
             except Exception as exc:  # noqa: BLE001 - a dead worker or node
-                rec = failed_record(jobs[i], exc)
+                rec = failed(jobs[i], exc)
             on_done(i, rec)
 
 
 def _run_ray(
-    ray: Any, jobs: Sequence[Job], workers: int | None, address: str, on_done: OnDone
+    ray: Any,
+    jobs: Sequence[Any],
+    workers: int | None,
+    address: str,
+    on_done: OnDone,
+    how: tuple[Run, Failed],
 ) -> None:
     started = False
     if not ray.is_initialized():
         _init_ray(ray, workers, address)
         started = True
     try:
-        ray_dispatch(ray, jobs, lambda i, rec: on_done(jobs[i], rec))
+        ray_dispatch(ray, jobs, lambda i, rec: on_done(jobs[i], rec), *how)
     finally:
         if started:
             ray.shutdown()

@@ -62,7 +62,7 @@ def main() -> int:
             _end_group()
 
     try:
-        cpus, jobs = pickle.load(inp)
+        cpus, jobs, *how = pickle.load(inp)  # how: another run and failed than a sweep's
         threading.Thread(target=watch, name="sweep-watch", daemon=True).start()
         import ray
 
@@ -75,7 +75,7 @@ def main() -> int:
         except Exception as exc:  # noqa: BLE001 - any failure to start, in one line
             send("error", _one_line(exc))
             return 1
-        ray_dispatch(ray, jobs, lambda i, rec: send("record", i, rec))
+        ray_dispatch(ray, jobs, lambda i, rec: send("record", i, rec), *how)
         ended.set()
         send("end")
         ray.shutdown()

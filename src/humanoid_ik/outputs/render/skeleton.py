@@ -91,7 +91,7 @@ def _frame(forward: ArrayLike) -> NDArray[np.float64]:
 def human_skeleton(
     positions: ArrayLike,
     *,
-    shoulders: tuple[int, int],
+    shoulders: Sequence[int],
     human_arm: float,
     robot_shoulders: ArrayLike,
     robot_arm: float,
@@ -101,7 +101,7 @@ def human_skeleton(
     """The human's joints placed on the robot as the retargeting maps them, ``(F, J, 3)``.
 
     Per frame ``f``: ``X_f = A + s M_f (P_f - S_f)``, with ``P_f`` every joint's world
-    position, ``S_f`` the midpoint of the two shoulders, ``s = robot_arm / human_arm``,
+    position, ``S_f`` the midpoint of the shoulders, ``s = robot_arm / human_arm``,
     ``A`` the robot's shoulders' midpoint, and ``M_f`` the turn about the vertical that
     takes the human's heading (forward = left x up, left along the horizontal line from
     the right to the left node of ``heading_pair``) to the robot's ``forward``. The
@@ -110,14 +110,16 @@ def human_skeleton(
 
     Args:
         positions: the human's joints ``(F, J, 3)`` [m, Z up] (``BVHClip.positions``).
-        shoulders: the left and right shoulder nodes (the upper arms' joints).
+        shoulders: the shoulder nodes (the upper arms' joints) of the mapped arms: left
+            and right, or the one of a one-armed mapping.
         human_arm: the human's arm length [m] (shoulder, elbow, wrist, hand point:
             :func:`chain_length` at rest).
-        robot_shoulders: the robot's shoulder points ``(k, 3)`` [m]; their mean is ``A``.
+        robot_shoulders: the robot's shoulder points ``(k, 3)`` [m] (the same arms'); their
+            mean is ``A``.
         robot_arm: the robot's arm length [m].
         forward: the robot's forward direction ``(3,)`` (made horizontal).
         heading_pair: the left and right nodes whose line gives the human's heading
-            (its thighs; default the shoulders).
+            (its thighs; default the two shoulders).
 
     Raises:
         MotionError: a bad shape, length or node index (named, with what was given).
@@ -126,10 +128,14 @@ def human_skeleton(
     if P.ndim != 3 or P.shape[2] != 3 or P.shape[0] < 1:
         raise MotionError("positions", "an array (frames, joints, 3)", f"shape {P.shape}")
     J = P.shape[1]
+    shoulders = tuple(int(i) for i in shoulders)
+    if not (1 <= len(set(shoulders)) == len(shoulders) <= 2 and all(0 <= i < J for i in shoulders)):
+        raise MotionError(
+            "shoulders", f"one or two different node indices from 0 to {J - 1}", shoulders
+        )
     pair = shoulders if heading_pair is None else heading_pair
-    for what, nodes in (("shoulders", shoulders), ("heading_pair", pair)):
-        if len(nodes) != 2 or not all(0 <= int(i) < J for i in nodes) or nodes[0] == nodes[1]:
-            raise MotionError(what, f"two different node indices from 0 to {J - 1}", nodes)
+    if len(pair) != 2 or not all(0 <= int(i) < J for i in pair) or pair[0] == pair[1]:
+        raise MotionError("heading_pair", f"two different node indices from 0 to {J - 1}", pair)
     for what, v in (("human_arm", human_arm), ("robot_arm", robot_arm)):
         if not (math.isfinite(float(v)) and float(v) > 0):
             raise MotionError(what, "a length > 0 [m]", v)
@@ -140,7 +146,7 @@ def human_skeleton(
     up = np.broadcast_to(_UP, left.shape)
     human = np.stack([np.cross(left, up), left, up], axis=2)  # (F, 3, 3) forward, left, up
     M = _frame(forward)[None] @ np.transpose(human, (0, 2, 1))
-    mid = (P[:, shoulders[0]] + P[:, shoulders[1]]) / 2
+    mid = P[:, list(shoulders)].mean(axis=1)
     s = float(robot_arm) / float(human_arm)
     return anchor + s * np.einsum("fij,fkj->fki", M, P - mid[:, None])
 
