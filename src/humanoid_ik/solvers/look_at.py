@@ -31,7 +31,7 @@ class LookAtOptions(SolverOptions):
 
     rot_tol: float = 1e-6
     forward_axis: str = option("x", valid=tuple(AXES))
-    max_iterations: int = 50
+    max_iterations: int = 200
 
 
 class LookAt(Solver):
