@@ -130,3 +130,30 @@ def test_look_at_solver_reports_the_measure(axis):
     assert res.position_error == pytest.approx(miss, abs=1e-15)
     assert res.orientation_error == pytest.approx(angle, abs=1e-15)
     assert angle < 1e-6
+
+
+def test_signed_axes_name_a_frame_axis_and_its_opposite():
+    """``-x`` is the opposite of ``x`` (a head frame that looks backwards, as iCub's);
+    ``axis_name`` names a direction along a frame axis and nothing else."""
+    from humanoid_ik.core.measures import axis_vector
+    from humanoid_ik.core.rotations import axis_name
+
+    assert axis_vector("-x").tolist() == [-1.0, 0.0, 0.0]
+    assert axis_vector("-z").tolist() == [0.0, 0.0, -1.0]
+    assert [axis_name(v) for v in ([0, -2, 0], [0, 0, 1], [1, 1, 0])] == ["-y", "z", None]
+
+
+def test_look_at_aims_an_opposite_axis():
+    """``look_at`` with ``forward_axis = "-x"`` turns the head so the gaze frame's -x
+    points at the target (MuJoCo FK of the answer)."""
+    from humanoid_ik import Chain, solve
+    from humanoid_ik.core.measures import axis_vector, gaze_error
+
+    head = Chain(site="gaze_site")
+    q = 0.5 * (head.lower + head.upper) + 0.3 * (head.upper - head.lower) * np.array([0.8, -0.6])
+    p, R = head.fk(q)
+    target = p - 0.5 * R[:, 0]  # behind the face, where -x looks at that posture
+    res = solve(head, target, "look_at", forward_axis="-x", q0=head.q_home)
+    p, R = head.fk(res.q)
+    assert res.converged and gaze_error(p, R, axis_vector("-x"), target).angle < 1e-6
+    assert gaze_error(p, R, axis_vector("x"), target).angle > 3.0  # x looks away

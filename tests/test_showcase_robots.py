@@ -82,26 +82,13 @@ def test_showcase_on_the_robot_meets_the_criteria(robot):
         assert not g.fixed and r.notes == () and g.frames == FRAMES
         if head == "pans":  # no frame to aim at within 1 degree: none is counted
             assert g.reachable == 0
-        elif robot != "icub":  # iCub: test_icub_gaze_aims_the_head_forward
+        else:  # iCub's head looks along -x of its head body: the limb's axis is aimed
             assert g.reachable == FRAMES
             assert g.worst_reachable < math.radians(1.0)
-        if robot != "icub":
-            assert g.worst_excess < math.radians(1.0)
+        assert g.worst_excess < math.radians(1.0)
     assert r.out_of_range == []
     assert r.collision_frames == 0, r.worst_pair
-    if robot != "icub":
-        assert r.failures == []
-
-
-@pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="iCub's head looks along -x of its head body (the limb's axis); a scene's look_at "
-    "aims the frame's +x: the limb's axis is not passed to the solver (config/scene_check.py)",
-)
-def test_icub_gaze_aims_the_head_forward():
-    g = report("icub").gaze
-    assert g.reachable == FRAMES and g.worst_reachable < math.radians(1.0)
+    assert r.failures == []
 
 
 def test_the_mjcf_humanoid_limbs_leave_sensors_and_fingers_out():

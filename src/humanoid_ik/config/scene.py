@@ -186,6 +186,7 @@ def parse_scene(
         profile,
         [t.track for t in f.targets],
         [e.spec for e in f.effectors],
+        f.solver,
     )
     return Scene(
         name=f.name,

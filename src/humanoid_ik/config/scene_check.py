@@ -51,6 +51,7 @@ from humanoid_ik.core.limbs import Profile, profile_for
 from humanoid_ik.core.models import load_model, staged_cameras
 from humanoid_ik.core.names import check_name
 from humanoid_ik.core.robot import Robot
+from humanoid_ik.core.rotations import axis_name
 from humanoid_ik.core.types import MAX_COORDINATE
 from humanoid_ik.errors import HumanoidIKError, MotionError, SceneError, show_value
 from humanoid_ik.motion import MAX_KNOTS, RandomWalk, TargetTrack
@@ -293,11 +294,14 @@ def place_scene(
     limbs: Path | None,
     targets: Sequence[TargetTrack | PlacedTrack],
     effectors: Sequence[EffectorSpec],
+    solver: SolverSpec | None = None,
 ) -> tuple[tuple[TargetTrack, ...], tuple[EffectorSpec, ...], tuple[str, ...]]:
     """A scene's targets and effectors placed on its model: every placement in world
     values (``config/placement.py``; an effector's ``{ limb, at }`` pole too), every limb
     effector given its end frame and joints (a ``look_at`` of a fixed head, as on G1,
-    left out with a note). Returns the targets, the effectors and the notes.
+    left out with a note; a head whose gaze frame looks along another axis than +x, as
+    iCub's, aimed along that axis: :func:`_gaze_axis`; ``solver`` is the scene's).
+    Returns the targets, the effectors and the notes.
 
     Raises:
         SceneError: the model or the profile does not load, a limb the model lacks, a
@@ -348,10 +352,34 @@ def place_scene(
             ) from None
         site = chain.ee_name if chain.ee_kind == "site" else None
         body = chain.ee_name if chain.ee_kind == "body" else None
-        out.append(replace(e, site=site, body=body, joints=tuple(chain.joint_names)))
+        e = replace(e, site=site, body=body, joints=tuple(chain.joint_names))
+        if e.task == "look_at":
+            e, note = _gaze_axis(e, profile, solver, i)
+            notes.extend([note] if note else [])
+        out.append(e)
     if not out and notes:
         raise SceneError(source, "effectors", f"expected an effector that can move; {notes[0]}")
     return tuple(placed), tuple(out), tuple(f"{source}: {n}" for n in notes)
+
+
+def _gaze_axis(
+    e: EffectorSpec, profile: Profile, solver: SolverSpec | None, i: int
+) -> tuple[EffectorSpec, str | None]:
+    """A limb's ``look_at`` aims its gaze frame's own forward axis (the profile's
+    ``axis``; iCub's head frame looks along -x): the effector gets ``look_at`` with that
+    ``forward_axis`` unless it names its own solver; a scene solver that moves several
+    effectors (mink) aims its own ``forward_axis``, which a note names. Returns the
+    effector and the note, if any."""
+    axis = profile.limb(e.limb).axis if e.limb is not None else None
+    name = "x" if axis is None else axis_name(axis)
+    where = f"effectors[{i}]: the {e.limb}'s gaze axis"
+    if name is None:
+        return e, f"{where} {list(axis or ())} is not along a frame axis: +x is aimed"
+    if name == "x" or e.solver is not None:
+        return e, None
+    if solver is not None and moves_several(solver.name):
+        return e, f"{where} is {name}: give {solver.name} forward_axis = '{name}'"
+    return replace(e, solver=SolverSpec("look_at", {"forward_axis": name})), None
 
 
 def check_scene(scene: Scene, model: mujoco.MjModel | None = None) -> list[Chain]:

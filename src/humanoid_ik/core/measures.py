@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from humanoid_ik.core.rotations import AXES
+from humanoid_ik.core.rotations import AXES, SIGNED_AXES
 from humanoid_ik.errors import TargetError
 
 __all__ = [
@@ -54,16 +54,18 @@ class GazeError(NamedTuple):
 
 
 def axis_vector(axis: str | ArrayLike) -> NDArray[np.float64]:
-    """A site-frame axis ``(3,)`` as a unit vector: ``"x"``, ``"y"``, ``"z"`` or 3 numbers.
+    """A site-frame axis ``(3,)`` as a unit vector: ``"x"``, ``"y"``, ``"z"``, their
+    opposites ``"-x"``, ``"-y"``, ``"-z"`` (:data:`~humanoid_ik.core.rotations.SIGNED_AXES`),
+    or 3 numbers.
 
     Raises:
         TargetError: an unknown axis name, or not a non-zero 3-vector.
     """
     if isinstance(axis, str):
-        if axis not in AXES:
-            raise TargetError(f"axis '{axis}' unknown; axes: {', '.join(AXES)}")
+        if axis not in SIGNED_AXES:
+            raise TargetError(f"axis '{axis}' unknown; axes: {', '.join(SIGNED_AXES)}")
         out = np.zeros(3)
-        out[AXES[axis]] = 1.0
+        out[AXES[axis[-1]]] = -1.0 if axis[0] == "-" else 1.0
         return out
     a = np.asarray(axis, dtype=np.float64)
     n = float(np.linalg.norm(a)) if a.shape == (3,) and np.all(np.isfinite(a)) else 0.0

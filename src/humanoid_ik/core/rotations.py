@@ -15,6 +15,8 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.errors import TargetError
 
 __all__ = [
+    "axis_name",
+    "SIGNED_AXES",
     "wrap_angle",
     "axis_angle_matrix",
     "rotation_between",
@@ -31,6 +33,19 @@ __all__ = [
 ]
 
 AXES = {"x": 0, "y": 1, "z": 2}
+SIGNED_AXES = ("x", "y", "z", "-x", "-y", "-z")
+"""The names of a frame's axes and their opposites (a gaze along ``-x``: iCub's head)."""
+
+
+def axis_name(v: ArrayLike, tol: float = 1e-6) -> str | None:
+    """The :data:`SIGNED_AXES` name of the direction ``v`` when it lies along a frame
+    axis (within ``tol``), else ``None``."""
+    a = np.asarray(v, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    k = int(np.argmax(np.abs(a)))
+    if abs(abs(float(a[k])) - 1.0) > tol:
+        return None
+    return ("-" if a[k] < 0 else "") + "xyz"[k]
 
 
 def axis_angle_matrix(axis: ArrayLike, angle: float) -> NDArray[np.float64]:

@@ -11,7 +11,7 @@ import numpy as np
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import gaze_error
-from humanoid_ik.core.rotations import AXES, hinge_angle_between
+from humanoid_ik.core.rotations import SIGNED_AXES, hinge_angle_between
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.options import SolverOptions, option
@@ -25,12 +25,13 @@ class LookAtOptions(SolverOptions):
 
     Attributes:
         rot_tol: the gaze's angle off the target that counts as aimed [rad].
-        forward_axis: the site axis aimed at the target: ``x``, ``y`` or ``z``.
+        forward_axis: the site axis aimed at the target: ``x``, ``y``, ``z`` or an
+            opposite, ``-x``, ``-y``, ``-z`` (a head whose frame looks backwards).
         max_iterations: sweeps over the chain's hinges.
     """
 
     rot_tol: float = 1e-6
-    forward_axis: str = option("x", valid=tuple(AXES))
+    forward_axis: str = option("x", valid=SIGNED_AXES)
     max_iterations: int = 200
 
 
@@ -60,7 +61,6 @@ class LookAt(Solver):
 
     def _solve(self, chain: Chain, target: Target, q0: np.ndarray) -> IKResult:
         m, d = chain.model, chain.data
-        k = AXES[self.options.forward_axis]
         axis = self.gaze_axis()
         q = q0.copy()
         chain.set_q(q)
@@ -72,7 +72,7 @@ class LookAt(Solver):
             for i in range(chain.n - 1, -1, -1):
                 j = jids[i]
                 want = pd - chain.position  # the look-at frame's forward column, unnormalised
-                fwd = chain.rotation[:, k]
+                fwd = chain.rotation @ axis
                 phi = hinge_angle_between(d.xaxis[j], fwd, want)
                 q[i] = min(max(q[i] + phi, lo[i]), hi[i])
                 d.qpos[qadr[i]] = q[i]

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
-from humanoid_ik.core.rotations import mat_to_quat
+from humanoid_ik.core.rotations import axis_name, mat_to_quat
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import RetargetError, choices
 from humanoid_ik.experiments.retarget.elbow import elbow_error, elbow_steps, pole_for, swivel_for
@@ -117,12 +117,11 @@ class Retargeter:
         self._gaze = None
         self.gaze_on = robot.head is not None and targets.gaze is not None
         if self.gaze_on:
-            axis = robot.gaze_axis
-            k = int(np.argmax(np.abs(axis)))
-            if abs(axis[k]) < 1 - 1e-6 or axis[k] < 0:
-                self.gaze_on = False  # look_at aims +x, +y or +z only
+            forward = axis_name(robot.gaze_axis)  # iCub's head frame looks along -x
+            if forward is None:
+                self.gaze_on = False  # look_at aims a frame axis (or its opposite) only
             else:
-                self._gaze = LookAt(rot_tol=GAZE_TOL, max_iterations=20, forward_axis="xyz"[k])
+                self._gaze = LookAt(rot_tol=GAZE_TOL, max_iterations=20, forward_axis=forward)
         if self.gaze_on:
             self.method["head"] = "look_at" if solver == "auto" else "mink"
         self._qp: Any = None

@@ -19,6 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from humanoid_ik.core.rotations import SIGNED_AXES
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.options import SolverOptions, option
 
@@ -141,8 +142,9 @@ class MinkOptions(SolverOptions):
         dt: with ``dt > 0`` [s] each scene frame is one tracking step of ``dt``.
         max_velocity: joint speed limit of tracking steps [rad/s] (> 0).
         qp_solver: the qpsolvers backend.
-        forward_axis: the axis (``x``, ``y`` or ``z``) of the ``look_at`` site's frame
-            that is aimed at the target (:meth:`MinkSolver.gaze_axis`).
+        forward_axis: the axis (``x``, ``y``, ``z``, or ``-x``, ``-y``, ``-z``) of the
+            ``look_at`` site's frame that is aimed at the target
+            (:meth:`MinkSolver.gaze_axis`).
     """
 
     max_iterations: int = 200
@@ -166,7 +168,7 @@ class MinkOptions(SolverOptions):
     dt: float = 0.0
     max_velocity: float = 4.0
     qp_solver: str = "daqp"
-    forward_axis: str = option("x", valid=("x", "y", "z"))
+    forward_axis: str = option("x", valid=SIGNED_AXES)
 
     BOUNDS: ClassVar[Mapping[str, tuple[float, float]]] = {
         "max_iterations": (0, 100_000),
