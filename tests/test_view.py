@@ -1,17 +1,25 @@
 """The live viewer for real: MuJoCo's passive viewer in a subprocess under a virtual X
 server (xvfb-run, MUJOCO_GL=glfw) follows the scene's moving targets, writes the
 trajectory of the frames it showed and exits 0; without a display it says so in one
-line. Dragging and pausing are checked on the viewer's own target logic and MjData."""
+line. Dragging and pausing are checked on the viewer's own target logic and MjData.
+Start-up under signals (issue 24, item 10): 20 SIGINT/SIGTERM at random moments of the
+window's opening under an Xvfb of the test's own: no segfault, no hang, 130/143 (or 0),
+nothing half written, nothing left running."""
 
 from __future__ import annotations
 
 import os
+import random
 import select
 import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
+import uuid
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import mujoco
@@ -21,6 +29,7 @@ import pytest
 from humanoid_ik.cli import main
 from humanoid_ik.config.scene import load_scene
 from humanoid_ik.core.measures import ON_TARGET_DISTANCE
+from humanoid_ik.outputs.atomic import published
 from humanoid_ik.outputs.render import MARKER_RADIUS, marker_radius
 from humanoid_ik.outputs.trajectory import load_trajectory
 from humanoid_ik.outputs.viewer import (
@@ -31,6 +40,17 @@ from humanoid_ik.outputs.viewer import (
     scene_mocap_model,
 )
 from humanoid_ik.run.runner import SceneRunner
+from tests.processes import (
+    MESSAGE,
+    STATUS,
+    TAG,
+    ended,
+    handles,
+    none_left,
+    signal_when,
+    start,
+    temporaries,
+)
 from tests.robots import robot_file
 
 REPO = Path(__file__).resolve().parents[1]
@@ -172,7 +192,115 @@ def test_view_bad_input(capsys):
     assert "give a SCENE or --model/--site/--body/--arm/--limb, not both" in capsys.readouterr().err
     assert main(["view", "circle", "--duration", "0"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "expected a number of seconds > 0, got '0'" in err
+    assert err.count("\n") == 1 and "expected a finite number of seconds > 0, got '0'" in err
+
+
+@pytest.mark.parametrize(
+    ("duration", "expected"),
+    [
+        ("inf", "expected a finite number of seconds > 0, got 'inf'"),
+        ("nan", "expected a finite number of seconds > 0, got 'nan'"),
+        ("-inf", "expected a finite number of seconds > 0, got '-inf'"),
+        (
+            "1e308",
+            "expected a number > 0 and <= 3333.33 (at most 100000 frames at 30 fps), got '1e+308'",
+        ),
+        (
+            "3334",
+            "expected a number > 0 and <= 3333.33 (at most 100000 frames at 30 fps), got '3334'",
+        ),
+    ],
+)
+def test_view_duration_is_bounded_before_anything_opens(
+    tmp_path, monkeypatch, capsys, duration, expected
+):
+    """--duration inf or 1e308 (an OverflowError once the viewer was up): one line naming
+    the bound, exit 2, before the display is even looked at (none here) and with
+    nothing written: --out is not created."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    out = tmp_path / "view"
+    assert main(["view", "circle", f"--duration={duration}", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"humanoid-ik: error: view: argument --duration: {expected}\n"
+    assert not out.exists()
+
+
+def test_view_duration_rule_of_the_library():
+    """view_scene checks the same bound as the command line (a script gets the line)."""
+    from humanoid_ik.errors import RenderError
+    from humanoid_ik.outputs.viewer import duration_rule, view_scene
+
+    assert duration_rule(3333.0, 30.0) is None and duration_rule(1.0, 1000.0) is None
+    assert duration_rule(float("inf"), 30.0) == "a finite number > 0"
+    assert duration_rule(1e308, 30.0) == duration_rule(3334.0, 30.0)
+    assert "at most 100000 frames at 30 fps" in str(duration_rule(1e308, 30.0))
+    with pytest.raises(RenderError, match=r"view duration: expected a finite number > 0, got inf"):
+        view_scene(load_scene("circle"), duration=float("inf"))
+
+
+def _free_display() -> str:
+    """A display number no X server serves here (no socket, no lock file)."""
+    for n in range(917, 999):
+        if not Path(f"/tmp/.X11-unix/X{n}").exists() and not Path(f"/tmp/.X{n}-lock").exists():
+            return f":{n}"
+    raise AssertionError("no free display number")
+
+
+def test_view_bad_display_is_one_line_and_leaves_nothing(tmp_path, monkeypatch, capsys):
+    """DISPLAY naming no X server: exit 2 and one line with GLFW's reason (it used to be
+    MuJoCo's exit 1 from C), no MUJOCO_LOG.TXT in the current folder, no --out made."""
+    display = _free_display()
+    monkeypatch.setenv("DISPLAY", display)
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "view"
+    assert main(["view", "circle", "--duration", "1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert f"view needs a display (X11: Failed to open display {display})" in err
+    assert "humanoid-ik render" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_view_refuses_an_out_holding_the_users_trajectory(tmp_path, monkeypatch, capsys):
+    """--out holding a trajectory.csv of the user's (no manifest names it): refused in one
+    line before the session (publishing it would be refused after), the file untouched."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "trajectory.csv").write_text("the user's own\n")
+    assert main(["view", "circle", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds 'trajectory.csv', which no earlier run wrote" in err
+    assert (out / "trajectory.csv").read_text() == "the user's own\n"
+    assert sorted(p.name for p in out.iterdir()) == ["trajectory.csv"]
+
+
+def test_signals_held_defers_a_signal_another_thread_takes():
+    """A SIGINT the kernel hands to another thread (as it does when the main thread blocks
+    it: OpenBLAS's threads, the viewer's) is raised when the held block ends, not in its
+    middle (where the viewer's window handle would be lost, the window never closed);
+    the handler is put back."""
+    from humanoid_ik.outputs.atomic import signals_held
+
+    handler = signal.getsignal(signal.SIGINT)
+    done = threading.Event()
+    other = threading.Thread(target=done.wait)
+    other.start()
+    steps: list[int] = []
+    try:
+        with pytest.raises(KeyboardInterrupt), signals_held():
+            assert other.ident is not None
+            signal.pthread_kill(other.ident, signal.SIGINT)
+            for k in range(200):  # bytecode and a sleep: where Python would run the handler
+                steps.append(k)
+                time.sleep(0.001)
+            steps.append(-1)
+    finally:
+        done.set()
+        other.join()
+    assert steps[-1] == -1 and len(steps) == 201
+    assert signal.getsignal(signal.SIGINT) is handler
 
 
 def test_dragged_target_is_followed_and_pause_holds_time():
@@ -261,3 +389,187 @@ def test_viewer_markers_are_sized_as_a_films(tmp_path):
     mujoco.mj_forward(model, data)
     view_dir = -data.cam("front").xmat.reshape(3, 3)[:, 2]  # a camera looks along its -z
     assert view_dir[1] > 0.8 * np.linalg.norm(view_dir[:2]), view_dir  # toward +y: at the jaw
+
+
+@pytest.fixture(scope="module")
+def xvfb() -> Iterator[str]:
+    """A virtual X server of this module's own (``Xvfb -displayfd``: it picks a free
+    display and writes its number once it serves); stopped at the end and checked gone,
+    with every process that carries its tag."""
+    exe = shutil.which("Xvfb")
+    assert exe is not None, "Xvfb is not installed (Debian: apt-get install xvfb)"
+    tag = uuid.uuid4().hex
+    r, w = os.pipe()
+    server = subprocess.Popen(
+        [exe, "-displayfd", str(w), "-nolisten", "tcp", "-noreset", "-screen", "0", "800x600x24"],
+        pass_fds=(w,),
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env={**os.environ, TAG: tag},
+    )
+    os.close(w)
+    try:
+        ready, _, _ = select.select([r], [], [], 30)
+        number = os.read(r, 16).decode().strip() if ready else ""
+        assert number.isdigit(), f"Xvfb gave no display within 30 s ({number!r})"
+        yield f":{number}"
+    finally:
+        os.close(r)
+        server.terminate()
+        try:
+            server.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait()
+    assert none_left(tag) == [], "Xvfb still runs"
+
+
+def _loaded(proc: subprocess.Popen, library: bytes) -> bool:
+    """Whether ``proc`` has mapped a shared library whose name holds ``library``."""
+    return library in Path(f"/proc/{proc.pid}/maps").read_bytes()
+
+
+VIEW_SIGNALS = 20
+"""Signals sent in the start-up test: SIGINT and SIGTERM, 10 each."""
+VIEW_SIGNAL_SEED = 24_10
+"""The seed of their moments (in every failure message, to run one again)."""
+
+
+def _view_signalled(k: int, out: Path, moments: random.Random) -> dict:
+    """Start ``view circle --duration 1 --out OUT`` and send trial ``k``'s signal at a
+    random moment of its start-up: up to 2 s after the command line is up (its SIGTERM
+    handler installed: scene, model and window still to come), or, every other pair of
+    trials, up to 1.5 s after the viewer module is loaded (``_simulate``: the mocap
+    model, the window's thread, the window's creation, its first frames)."""
+    sig = (signal.SIGINT, signal.SIGTERM)[k % 2]
+    tag = uuid.uuid4().hex
+    proc = start(["view", "circle", "--duration", "1", "--out", str(out)], tag)
+    if k % 4 < 2:
+        moment, after = "up", moments.uniform(0.0, 2.0)
+        ready = lambda: handles(proc, signal.SIGTERM)  # noqa: E731
+    else:
+        moment, after = "viewer", moments.uniform(0.0, 1.5)
+        ready = lambda: _loaded(proc, b"_simulate")  # noqa: E731
+    sent = signal_when(proc, sig, ready, after=after, within=60)
+    try:  # the window's creation had begun (its GL library loaded) when the signal went
+        making = sent and _loaded(proc, b"libGLX")
+    except OSError:  # it has ended already
+        making = False
+    try:
+        stdout, stderr, hang = *ended(proc, tag, 60), ""
+    except AssertionError as exc:  # it hung: killed, with all it started
+        stdout, stderr, hang = b"", b"", str(exc)
+    return {
+        "k": k,
+        "sig": sig,
+        "moment": f"{moment} + {after:.2f} s",
+        "sent": sent,
+        "making": making,
+        "status": proc.returncode,
+        "stdout": stdout.decode(),
+        "stderr": stderr.decode(),
+        "hang": hang,
+        "left": none_left(tag),
+        "out": out,
+    }
+
+
+def _check_view_trial(t: dict) -> str:
+    """One trial's outcome, checked: what the status says happened is on disk; returns
+    which it was."""
+    sig, status, err, out = t["sig"], t["status"], t["stderr"], t["out"]
+    assert not t["hang"], t["hang"]
+    assert status != -signal.SIGSEGV, "segfault"
+    for text in ("Traceback", "X Error", "Fatal Python", "MUJOCO_LOG"):
+        assert text not in err
+    assert t["left"] == [], "processes left"
+    assert temporaries(out.parent) == []
+    assert not (out.parent / "MUJOCO_LOG.TXT").exists()
+    lines = err.splitlines()
+    whole = t["stdout"].startswith("circle: 30 frame(s) shown")
+    if status == 0 or (status == -sig and whole):  # ended first, or the signal met its exit
+        assert whole and not lines[-1].startswith("humanoid-ik: interrupted")
+        traj = load_trajectory(out / "trajectory.npz")
+        assert traj.n_frames == 30 and not traj.interrupted
+        return "ended first" if status == 0 else "at exit"
+    assert t["sent"] and status == STATUS[sig]
+    if lines[-1] == MESSAGE[sig] and not out.exists():  # before the first frame
+        assert "frame(s) shown" not in t["stdout"]
+        if "viewer open" in err:
+            return "before a frame"
+        return "while the window was made" if t["making"] else "before the window"
+    if lines[-1] == MESSAGE[sig]:  # while publishing or closing: the set is whole
+        npz, csv = (load_trajectory(out / f"trajectory.{e}") for e in ("npz", "csv"))
+        assert npz.n_frames == csv.n_frames >= 1
+        return "while closing"
+    frames = int(lines[-1].removeprefix("humanoid-ik: interrupted after ").split()[0])
+    traj = load_trajectory(out / "trajectory.csv")
+    assert frames >= 1 and traj.n_frames == frames and traj.interrupted
+    assert sorted(p.name for p in out.iterdir() if p.name[0] != ".") == [
+        "trajectory.csv",
+        "trajectory.npz",
+    ]
+    return "during the frames"
+
+
+@pytest.mark.slow
+def test_view_start_up_under_signals(tmp_path, monkeypatch, xvfb):
+    """20 SIGINT/SIGTERM at random moments of the viewer's start-up (two runs at a time,
+    one shared Xvfb): the window's creation used to segfault (exit 139) or hang on an
+    X error when one landed there. Each run ends within 60 s with 130/143 (or 0 when it
+    ended first), one line, no traceback; a run stopped before its first frame wrote
+    nothing (no --out folder), one stopped later wrote its interrupted trajectory; no
+    temporary, no MUJOCO_LOG.TXT, no process of it left."""
+    monkeypatch.setenv("DISPLAY", xvfb)
+    monkeypatch.chdir(tmp_path)  # where a MUJOCO_LOG.TXT would appear
+    moments = random.Random(VIEW_SIGNAL_SEED)
+    plan = [
+        (k, tmp_path / f"run{k}" / "view", random.Random(moments.random()))
+        for k in range(VIEW_SIGNALS)
+    ]
+    for _, out, _ in plan:
+        out.parent.mkdir()
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        trials = list(pool.map(lambda p: _view_signalled(*p), plan))
+    seen: dict[str, int] = {}
+    for t in trials:
+        context = {k: t[k] for k in ("k", "sig", "moment", "sent", "status")}
+        try:
+            outcome = _check_view_trial(t)
+        except (AssertionError, OSError, IndexError, ValueError) as exc:
+            raise AssertionError(
+                f"seed {VIEW_SIGNAL_SEED}: {context}: {exc}\n{t['stderr'][-1500:]}"
+            ) from exc
+        seen[outcome] = seen.get(outcome, 0) + 1
+    print(f"view start-up under {VIEW_SIGNALS} signals: {seen}")
+
+
+@pytest.mark.slow
+def test_view_out_into_a_renders_folder_replaces_its_set(tmp_path, monkeypatch, xvfb):
+    """`view --out` onto a folder holding a render: the viewer's trajectory replaces the
+    render's set as one (video, frames, metrics gone, the manifest naming only the
+    viewer's two files), not a mix of both runs (it used to write its trajectory
+    directly, beside the render's files)."""
+    out = tmp_path / "shared"
+    assert main(["render", "circle", "--frames", "2", "--out", str(out)]) == 0
+    assert (out / "circle.mp4").exists() and (out / "metrics.csv").exists()
+    (out / "notes.txt").write_text("the user's own\n")  # never touched
+    monkeypatch.setenv("DISPLAY", xvfb)
+    tag = uuid.uuid4().hex
+    proc = start(["view", "circle", "--duration", "0.5", "--out", str(out)], tag)
+    stdout, stderr = ended(proc, tag, 120)
+    assert proc.returncode == 0, stderr.decode()
+    assert stdout.decode().splitlines() == [
+        "circle: 15 frame(s) shown",
+        f"wrote {out / 'trajectory.npz'}",
+        f"wrote {out / 'trajectory.csv'}",
+    ]
+    assert sorted(p.name for p in out.iterdir() if p.name[0] != ".") == [
+        "notes.txt",
+        "trajectory.csv",
+        "trajectory.npz",
+    ]
+    assert published(out) == ["trajectory.csv", "trajectory.npz"]
+    assert load_trajectory(out / "trajectory.npz").n_frames == 15
+    assert temporaries(out) == [] and none_left(tag) == []

@@ -6,12 +6,21 @@ with the targets as mocap bodies: the scene's motions play (space pauses them), 
 target can be dragged (double-click it, then Ctrl + right-drag; Backspace hands it back
 to its motion) and the solver tracks it live. With
 ``--model``/``--site`` (or ``--body``, a URDF link) there is one target, still at the end
-effector's home position until dragged. ``--out`` writes the trajectory of the frames shown on exit.
+effector's home position until dragged. ``--out`` publishes the trajectory of the frames
+shown on exit, as one set in place of the previous run's files there.
+
+Everything that can be refused is checked before the window opens: the display (one line,
+exit 2), the scene, ``--duration`` (finite, at most ``MAX_FRAMES`` frames at the scene's
+frame rate: ``docs/limits.md``) and ``--out`` (writable, and holding no file of the user's
+that the trajectory would replace). A folder ``--out`` created for a session that wrote
+nothing (stopped before its first frame) is removed again.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -54,7 +63,7 @@ def _point_scene(args: argparse.Namespace) -> Any:
 
 def _cmd_view(args: argparse.Namespace) -> int:
     from humanoid_ik.config.scene import check_scene, load_scene
-    from humanoid_ik.outputs.viewer import check_display, view_scene
+    from humanoid_ik.outputs.viewer import check_display, duration_rule, view_scene
 
     chain_args = (args.model, args.site, args.body, args.joints, args.arm, args.limb)
     if args.scene is not None and (any(a is not None for a in chain_args) or args.with_torso):
@@ -62,7 +71,6 @@ def _cmd_view(args: argparse.Namespace) -> int:
             "give a SCENE or --model/--site/--body/--arm/--limb, not both (--joints goes "
             "with --model)"
         )
-    check_display()
     if args.scene is None:
         scene = _point_scene(args)
     else:
@@ -74,6 +82,12 @@ def _cmd_view(args: argparse.Namespace) -> int:
                 raise UsageError(f"--solver '{args.solver}' unknown; solvers: {', '.join(SOLVERS)}")
             scene = scene.with_overrides(solver=args.solver)
     check_scene(scene)
+    if args.duration is not None and (rule := duration_rule(args.duration, scene.fps)):
+        raise UsageError(f"view: argument --duration: expected {rule}, got '{args.duration:g}'")
+    if args.out is not None:
+        _check_out(Path(args.out))
+    check_display()  # before --out is made: a bad display leaves nothing behind
+    made = args.out is not None and not os.path.lexists(args.out)
     if args.out is not None:
         from humanoid_ik.outputs.record import check_output_dir
 
@@ -88,9 +102,30 @@ def _cmd_view(args: argparse.Namespace) -> int:
             flush=True,
         )
 
-    result = view_scene(scene, args.out, duration=args.duration, on_open=opened)
+    try:
+        result = view_scene(scene, args.out, duration=args.duration, on_open=opened)
+    finally:
+        if made:  # a folder of ours that received nothing goes again
+            try:
+                os.rmdir(args.out)
+            except OSError:  # it holds the trajectory (or is gone)
+                pass
     print(f"{scene.name}: {result.frames} frame(s) shown")
     return report_files(result.trajectory or (), (), result.recorded.interrupted, result.frames)
+
+
+def _check_out(folder: Path) -> None:
+    """``--out`` before the session: no trajectory file there but one an earlier run
+    published (``outputs/atomic.py`` would refuse the set after the session)."""
+    from humanoid_ik.outputs.atomic import published
+
+    ours = set(published(folder))
+    for name in ("trajectory.npz", "trajectory.csv"):
+        if name not in ours and os.path.lexists(folder / name):
+            raise UsageError(
+                f"view: --out '{folder}' holds '{name}', which no earlier run wrote there; "
+                "remove it or choose another output folder"
+            )
 
 
 def _duration(text: str) -> float:
@@ -98,8 +133,8 @@ def _duration(text: str) -> float:
         v = float(text)
     except ValueError:
         v = -1.0
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"expected a number of seconds > 0, got '{text}'")
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number of seconds > 0, got '{text}'")
     return v
 
 
@@ -128,6 +163,9 @@ def register(subparsers: Any) -> None:
         "--duration", type=_duration, metavar="S", help="close after S seconds of frames"
     )
     p.add_argument(
-        "--out", type=nonempty_path, metavar="DIR", help="write the trajectory here on exit"
+        "--out",
+        type=nonempty_path,
+        metavar="DIR",
+        help="publish the trajectory here on exit (in place of the previous run's files)",
     )
     p.set_defaults(func=_cmd_view)

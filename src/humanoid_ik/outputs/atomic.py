@@ -240,7 +240,7 @@ def signals_held() -> Iterator[None]:
         if hasattr(signal, "pthread_sigmask")
         else None
     )
-    handlers: dict[int, Any] = {}
+    handlers: dict[signal.Signals, Any] = {}
     late: BaseException | None = None
     try:
         for sig in held:
@@ -258,8 +258,8 @@ def signals_held() -> Iterator[None]:
                     late = late or exc
         if before is not None:
             signal.pthread_sigmask(signal.SIG_SETMASK, before)
-        for sig in dict.fromkeys(noted):
-            signal.raise_signal(sig)
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)
         if late is not None:
             raise late
 

@@ -9,14 +9,24 @@ the mocap bodies' positions from the previous frame's joints, the viewer shows t
 result, and the overlay shows each effector's solver, error and solve time. When the
 window closes (or ``duration`` is up) the trajectory of the frames shown is written
 before the viewer is shut down, so no data depends on a clean shutdown.
+
+Start-up is signal-safe: the display is tried first (GLFW, in this thread), so a bad
+``DISPLAY`` is one line, not MuJoCo's exit from C; SIGINT and SIGTERM are held back
+while the window is being made (:func:`~humanoid_ik.outputs.atomic.signals_held`: a
+signal there used to leave the window's thread running into the interpreter's exit, a
+segfault or an X error) and handled once it is up; the window is closed, and its thread
+joined, in every path; the trajectory is published as one set
+(:func:`~humanoid_ik.outputs.atomic.staged_outputs`).
 """
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,10 +36,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.config.scene_check import check_scene
-from humanoid_ik.config.specs import Scene
+from humanoid_ik.config.specs import MAX_FRAMES, Scene, duration_problem
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import Target
-from humanoid_ik.errors import RenderError
+from humanoid_ik.errors import RenderError, show_value
+from humanoid_ik.outputs.atomic import signals_held, staged_outputs
 from humanoid_ik.outputs.render.drawing import marker_radius
 from humanoid_ik.outputs.stage import staged_spec
 from humanoid_ik.outputs.trajectory import write_trajectory
@@ -43,6 +54,7 @@ __all__ = [
     "LiveTargets",
     "ViewOutputs",
     "check_display",
+    "duration_rule",
     "mocap_model",
     "scene_mocap_model",
     "view_scene",
@@ -182,15 +194,44 @@ def _overlay(record: FrameRecord, solvers: list[str]) -> tuple[str, str]:
 
 
 def check_display() -> None:
-    """Raise a one-line :class:`RenderError` when there is no display to open a window.
+    """Raise a one-line :class:`RenderError` when there is no display to open a window:
+    none set, or GLFW (the viewer's window library) cannot initialise on it. Tried here,
+    in the calling thread, because the viewer's own thread would stop the process from C
+    (exit 1, a ``MUJOCO_LOG.TXT`` left in the current folder).
 
     Raises:
-        RenderError: ``DISPLAY`` (and ``WAYLAND_DISPLAY``) unset on Linux.
+        RenderError: ``DISPLAY`` (and ``WAYLAND_DISPLAY``) unset on Linux, or no display
+            there (``X11: Failed to open display :99``), or no GLFW.
     """
     if sys.platform.startswith("linux") and not (
         os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
     ):
         raise RenderError(NO_DISPLAY.format(why="DISPLAY is not set"))
+    try:
+        import glfw
+    except Exception as exc:  # ImportError, or the package's RuntimeError: no library
+        raise RenderError(NO_DISPLAY.format(why=" ".join(str(exc).split()))) from None
+    reporting, glfw.ERROR_REPORTING = glfw.ERROR_REPORTING, "ignore"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ok = glfw.init()
+            _, why = glfw.get_error()
+    finally:
+        glfw.ERROR_REPORTING = reporting
+    if not ok:
+        text = why.decode(errors="replace") if isinstance(why, bytes) else "GLFW cannot start"
+        raise RenderError(NO_DISPLAY.format(why=" ".join(text.split())))
+    glfw.terminate()  # the viewer's thread initialises it again for its window
+
+
+def duration_rule(duration: float, fps: float) -> str | None:
+    """What a session's ``duration`` [s] must be at ``fps`` when it is not a finite
+    number > 0 of at most :data:`~humanoid_ik.config.specs.MAX_FRAMES` frames, else
+    ``None`` (as a scene's ``duration``: ``docs/limits.md``)."""
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        return "a finite number > 0"
+    return duration_problem(min(duration, 2.0 * MAX_FRAMES / fps), fps)  # 1e308 x fps: inf
 
 
 def view_scene(
@@ -201,18 +242,27 @@ def view_scene(
     on_open: Callable[[], None] | None = None,
 ) -> ViewOutputs:
     """Open the live viewer on ``scene`` until its window closes (or ``duration`` [s] of
-    frames have been shown), then write ``trajectory.npz``/``.csv`` into ``out_dir``
-    (when given); ``on_open`` is called once the window is open.
+    frames have been shown; at most :data:`~humanoid_ik.config.specs.MAX_FRAMES` frames,
+    what a trajectory file holds), then publish ``trajectory.npz``/``.csv`` into
+    ``out_dir`` (when given) as one set, in place of the previous run's files there;
+    ``on_open`` is called once the window is open.
 
     The targets' motions advance one frame time ``1 / fps`` per frame shown, paced to
     the wall clock; a display that cannot keep up plays them slower, never skips.
     Ctrl-C (or SIGTERM through the CLI) ends the session like closing the window, and
-    the trajectory then says ``interrupted``.
+    the trajectory then says ``interrupted``; one while the window is being made is
+    held back until it is up, then the window is closed and ``KeyboardInterrupt``
+    raised with nothing written (no frame was shown: the previous set stays); a window
+    closed before its first frame writes nothing either.
 
     Raises:
-        RenderError: no display, or the viewer's window cannot be opened.
+        RenderError: no display, the viewer's window cannot be opened, or ``duration``
+            is not a finite number > 0 of at most ``MAX_FRAMES`` frames.
         SceneError: the scene does not fit its model.
+        KeyboardInterrupt: stopped before the first frame was shown.
     """
+    if duration is not None and (rule := duration_rule(duration, scene.fps)) is not None:
+        raise RenderError(f"view duration: expected {rule}, got {show_value(duration)}")
     check_display()
     import mujoco.viewer
 
@@ -222,38 +272,53 @@ def view_scene(
     recording = runner.recording()
     solvers = runner.solver_labels()
     dt = 1.0 / scene.fps
+    n = MAX_FRAMES if duration is None else max(1, round(duration * scene.fps))
     before = set(threading.enumerate())
+    viewer = None
     try:
-        viewer = mujoco.viewer.launch_passive(model, runner.data, key_callback=live.key)
-    except Exception as exc:  # glfw raises several types without a display
-        raise RenderError(NO_DISPLAY.format(why=" ".join(str(exc).split()))) from exc
-    if on_open is not None:
-        on_open()
-    start = time.perf_counter()
+        with signals_held():  # a signal now is raised once the window is up
+            try:
+                viewer = mujoco.viewer.launch_passive(model, runner.data, key_callback=live.key)
+            except Exception as exc:  # glfw raises several types without a display
+                raise RenderError(NO_DISPLAY.format(why=" ".join(str(exc).split()))) from exc
+        if on_open is not None:
+            on_open()
+        shown = viewer
+        start = time.perf_counter()
 
-    def step(i: int) -> FrameRecord:
-        wait = start + i * dt - time.perf_counter()
-        if wait > 0:
-            time.sleep(wait)
-        with viewer.lock():
-            targets = live.update(runner.data, 0.0 if i == 0 else dt)
-            return runner.step(i, targets, live.time)
+        def step(i: int) -> FrameRecord:
+            wait = start + i * dt - time.perf_counter()
+            if wait > 0:
+                time.sleep(wait)
+            with shown.lock():
+                targets = live.update(runner.data, 0.0 if i == 0 else dt)
+                return runner.step(i, targets, live.time)
 
-    class Show:
-        def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
-            viewer.set_texts((None, None, *_overlay(record, solvers)))
-            viewer.sync()
+        class Show:
+            def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
+                shown.set_texts((None, None, *_overlay(record, solvers)))
+                shown.sync()
 
-    n = 2**62 if duration is None else max(1, round(duration * scene.fps))
-    try:
         _, interrupted = frame_loop(
-            n, step, runner.data, [recording, Show()], stop=lambda: not viewer.is_running()
+            n, step, runner.data, [recording, Show()], stop=lambda: not shown.is_running()
         )
+        if interrupted and not len(recording):  # before its first frame: the set stays
+            raise KeyboardInterrupt
         recording.interrupted = interrupted
         traj = recording.trajectory()
-        files = None if out_dir is None else write_trajectory(traj, out_dir)
+        files = None if out_dir is None or not len(recording) else _publish(traj, Path(out_dir))
     finally:
-        viewer.close()
-        for thread in set(threading.enumerate()) - before:  # the viewer's window thread
-            thread.join(timeout=10.0)
+        with signals_held():  # the window's thread must not outlive this
+            if viewer is not None:
+                viewer.close()
+            for thread in set(threading.enumerate()) - before:  # the viewer's window thread
+                thread.join(timeout=10.0)
     return ViewOutputs(traj.n_frames, files, traj)
+
+
+def _publish(traj: Trajectory, folder: Path) -> tuple[Path, Path]:
+    """Write the trajectory files into ``folder`` as one set (in place of the previous
+    run's: ``render``'s video and metrics too)."""
+    with staged_outputs(folder) as stage:
+        npz, csv = write_trajectory(traj, stage)
+    return folder / npz.name, folder / csv.name
