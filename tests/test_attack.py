@@ -51,6 +51,7 @@ CIRCLE_MOTION = (
 
 SCENE_EDITS = {
     "duration": ("duration = 4.0", "duration = 1e300"),
+    "duration-inf": ("duration = 4.0", "duration = 1e308"),  # x fps overflows to inf
     "long": ("duration = 4.0", "duration = 3334.0"),
     "fps": ("fps = 30", "fps = 0.001"),
     "trail": ("trail = 2.0", "trail = 1e300"),
@@ -135,6 +136,9 @@ CASES = [
     ("scene-duration", ["render", "{scene:duration}", "--out", "{tmp}/r"], 2,
      "duration: expected a number > 0 and <= 3333.33 (at most 100000 frames at 30 fps), "
      "got 1e+300"),
+    ("scene-duration-inf", ["run", "{scene:duration-inf}", "--out", "{tmp}/r"], 2,
+     "duration: expected a number > 0 and <= 3333.33 (at most 100000 frames at 30 fps), "
+     "got 1e+308"),
     ("scene-long", ["render", "{scene:long}", "--out", "{tmp}/r"], 2,
      "duration: expected a number > 0 and <= 3333.33"),
     ("scene-fps", ["render", "{scene:fps}", "--out", "{tmp}/r"], 2,

@@ -7,6 +7,7 @@ not import pydantic."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -84,7 +85,8 @@ SIZE = f"an even integer >= {MIN_IMAGE_SIZE} and <= {MAX_IMAGE_SIZE} (pixels)"
 def duration_problem(duration: float, fps: float) -> str | None:
     """What ``duration`` [s] must be at ``fps`` when ``duration x fps`` is over
     :data:`MAX_FRAMES` frames, else ``None``."""
-    if max(1, round(duration * fps)) <= MAX_FRAMES:
+    frames = duration * fps  # inf for duration = 1e308: over the bound, not an error
+    if math.isfinite(frames) and max(1, round(frames)) <= MAX_FRAMES:
         return None
     return f"a number > 0 and <= {MAX_FRAMES / fps:g} (at most {MAX_FRAMES} frames at {fps:g} fps)"
 
