@@ -15,6 +15,8 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -179,6 +181,9 @@ CASES = [
      "option 'stall_window' of solver 'dls' must be an integer >= 0 and <= 100000"),
     ("restarts", [*SOLVE, "--solver", "pseudoinverse", "--option", "restarts=1e9"], 2,
      "option 'restarts' of solver 'pseudoinverse' must be an integer >= 0 and <= 1000"),
+    # --- issue 24, item 16: a sweep is a file or a bundled sweep's name (listed when unknown)
+    ("sweep-name", ["sweep", "no_such_sweep", "--out", "{tmp}/o"], 2,
+     "no_such_sweep: no such sweep file; expected a path or a bundled sweep: compare_solvers"),
 ]  # fmt: skip
 """(id, command arguments, exit status, message fragment): the bad-input table."""
 
@@ -338,3 +343,88 @@ def test_ray_address_where_nothing_answers_fails_soon(tmp_path):
     err = proc.stderr.strip().splitlines()
     assert err[-1].startswith("humanoid-ik: error: cannot connect to Ray at '127.0.0.1:1': ")
     assert len(err) == 1 and "Traceback" not in proc.stderr, proc.stderr
+
+
+# ----------------------------------------------------------------------------- issue 24, item 16
+def test_scene_found_by_its_file_name_and_its_declared_name(capsys, monkeypatch, tmp_path):
+    """``scenes`` lists a scene by the ``name`` its TOML declares; ``run`` finds it by that
+    name and by its file name; a file name wins over another file's declared name; a
+    declared name two files share is refused in one line naming both files."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    circle = (bundled_dir("scenes") / "circle.toml").read_text()
+    assert 'name = "circle"' in circle
+    for stem, name in [
+        ("file_stem", "shown"),
+        ("shown2", "file_stem"),
+        ("a", "twin"),
+        ("b", "twin"),
+    ]:
+        (folder / f"{stem}.toml").write_text(circle.replace('name = "circle"', f'name = "{name}"'))
+    monkeypatch.setenv("HUMANOID_IK_SCENES", str(folder))
+    assert main(["scenes"]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert listed == ["twin", "twin", "shown", "file_stem"]  # a, b, file_stem, shown2
+    for i, (arg, source) in enumerate([("shown", "file_stem"), ("file_stem", "file_stem"),
+                                       ("shown2", "shown2")]):  # fmt: skip
+        out = tmp_path / f"r{i}"
+        assert main(["run", arg, "--out", str(out), "--frames", "3"]) == 0, capsys.readouterr()
+        metrics = json.loads((out / "metrics.json").read_text())
+        assert Path(metrics["source"]).name == f"{source}.toml" and metrics["frames"] == 3
+    capsys.readouterr()
+    assert main(["run", "twin", "--out", str(tmp_path / "tw")]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1, err
+    assert (
+        "twin: a scene name several bundled files declare; expected one of their file "
+        "names: a, b" in err
+    )
+    assert not (tmp_path / "tw").exists()
+
+
+@contextmanager
+def unwritable(folder: Path) -> Iterator[None]:
+    """``folder`` made unwritable: read-only, or immutable (``chattr +i``) when running
+    as root makes a read-only folder writable anyway; the test is skipped if neither holds."""
+    folder.chmod(0o555)
+    immutable = False
+    try:
+        if os.access(folder, os.W_OK):
+            immutable = subprocess.run(["chattr", "+i", str(folder)], capture_output=True,
+                                       check=False).returncode == 0  # fmt: skip
+        if os.access(folder, os.W_OK):
+            pytest.skip("cannot make a folder unwritable here (root, no chattr)")
+        yield
+    finally:
+        if immutable:
+            subprocess.run(["chattr", "-i", str(folder)], check=False)
+        folder.chmod(0o755)
+
+
+@pytest.mark.parametrize(
+    ("out", "where"),
+    [("ro", "it"), ("ro/new/deeper", "folder '{tmp}/ro'"), ("w", "folder '{tmp}/w/jobs'")],
+    ids=["read-only", "under-read-only", "jobs-read-only"],
+)
+def test_sweep_onto_an_unwritable_folder_announces_nothing(capsys, files, tmp_path, out, where):
+    """A sweep whose output folder cannot be written says so in one line, exit 2, before
+    it announces or runs any job (nothing on stdout, nothing created)."""
+    (tmp_path / "ro").mkdir()
+    (tmp_path / "w" / "jobs").mkdir(parents=True)
+    locked = tmp_path / ("w/jobs" if out == "w" else "ro")
+    before = _listing(tmp_path)
+    with unwritable(locked):
+        code = main(["sweep", files["{sweep}"], "--out", str(tmp_path / out), "--no-plot"])
+    stdout, err = capsys.readouterr()
+    assert code == 2, err
+    assert stdout == "" and err.count("\n") == 1, (stdout, err)
+    expected = f"humanoid-ik: error: cannot write '{tmp_path / out}': {_fill(where, files)} "
+    assert err == expected + "is not writable\n"
+    assert _listing(tmp_path) == before
+
+
+def test_sweep_help_names_a_bundled_sweep(capsys):
+    """``sweep --help`` says the sweep may be a bundled sweep's name, as it may."""
+    assert main(["sweep", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "SWEEP.toml|NAME" in text and "a sweep file, or a bundled sweep's name" in text

@@ -1,5 +1,6 @@
-"""``humanoid-ik sweep SWEEP.toml [--out DIR] [--workers N] [--ray ADDRESS|local]
-[--no-plot]``: run a sweep's grid of jobs (resumable) and write its summary."""
+"""``humanoid-ik sweep SWEEP.toml|NAME [--out DIR] [--workers N] [--ray ADDRESS|local]
+[--no-plot]``: run a sweep's grid of jobs (resumable) and write its summary. ``NAME`` is
+a bundled sweep (``sweeps/``, :func:`~humanoid_ik.config.sweep_file.find_sweep`)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from typing import Any
 from humanoid_ik.cli.args import UsageError, int_in, nonempty_path, ray_address
 from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.config.sweep_file import load_sweep
-from humanoid_ik.experiments.sweep import damaged_records, read_records, run_sweep
+from humanoid_ik.experiments.sweep import check_out, damaged_records, read_records, run_sweep
 from humanoid_ik.experiments.sweep.executors import MAX_WORKERS
 from humanoid_ik.experiments.sweep.summary import percent
 
@@ -27,6 +28,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     out = Path("renders") / "sweeps" / sweep.name if args.out is None else Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out '{out}' is a file; expected a folder")
+    check_out(out)  # before anything is announced or run
     todo = len(sweep.jobs)
     if out.is_dir():
         todo -= len(read_records(out, sweep.jobs))
@@ -98,11 +100,16 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "sweep",
         help="run a grid of scenes/target sets x solvers x seeds (local pool or Ray)",
-        description="Expand a sweep file into jobs, run the ones without a result yet on a "
-        "local process pool (default) or on Ray, and write summary.csv, summary.json and "
-        "summary.png into renders/sweeps/<sweep> (or --out).",
+        description="Expand a sweep file (or a bundled sweep, by name) into jobs, run the "
+        "ones without a result yet on a local process pool (default) or on Ray, and write "
+        "summary.csv, summary.json and summary.png into renders/sweeps/<sweep> (or --out).",
     )
-    p.add_argument("sweep", metavar="SWEEP.toml", help="a sweep file")
+    p.add_argument(
+        "sweep",
+        metavar="SWEEP.toml|NAME",
+        help="a sweep file, or a bundled sweep's name (compare_solvers: sweeps/<NAME>.toml; "
+        "HUMANOID_IK_SWEEPS sets that folder)",
+    )
     p.add_argument(
         "--out",
         type=nonempty_path,

@@ -107,10 +107,13 @@ def bundled_scenes() -> list[Path]:
 
 
 def find_scene(name_or_path: str | os.PathLike) -> Path:
-    """A scene file from a path, or from the name of a bundled scene (``circle``).
+    """A scene file from a path, or from the name of a bundled scene: its file name
+    (``circle``) or, when they differ, the ``name`` its TOML declares (what ``scenes``
+    lists). A file name wins over a declared name.
 
     Raises:
-        SceneError: neither a file nor a bundled scene (the bundled names are listed).
+        SceneError: neither a file nor a bundled scene (the bundled names are listed), or
+            a declared name that several bundled files share.
     """
     p = Path(name_or_path)
     if p.is_file():
@@ -119,6 +122,16 @@ def find_scene(name_or_path: str | os.PathLike) -> Path:
         candidate = bundled_scenes_dir() / f"{p.name}.toml"
         if candidate.is_file():
             return candidate
+        declared = [f for f in bundled_scenes() if _declared_name(f) == p.name]
+        if len(declared) == 1:
+            return declared[0]
+        if declared:
+            raise SceneError(
+                p.name,
+                "",
+                "a scene name several bundled files declare; expected one of their file "
+                f"names: {', '.join(f.stem for f in declared)}",
+            )
     names = ", ".join(s.stem for s in bundled_scenes()) or "(none)"
     raise SceneError(
         str(name_or_path),
@@ -126,6 +139,16 @@ def find_scene(name_or_path: str | os.PathLike) -> Path:
         f"no such scene file; expected a path or a bundled scene: {names}"
         + bundled_override("scenes"),
     )
+
+
+def _declared_name(path: Path) -> str | None:
+    """The ``name`` a bundled scene file declares (``None``: none, or unreadable; loading
+    it by its file name gives the error)."""
+    try:
+        name = read_toml(path, display_path(path), SceneError).get("name")
+    except SceneError:
+        return None
+    return name if isinstance(name, str) else None
 
 
 # ----------------------------------------------------------------------------- parsing

@@ -15,6 +15,7 @@ from humanoid_ik.experiments.sweep.executors import import_ray
 from humanoid_ik.experiments.sweep.jobs import COLUMNS, TIMING_COLUMNS, run_job
 from humanoid_ik.experiments.sweep.resume import (
     SweepResult,
+    check_out,
     damaged_records,
     read_records,
     run_sweep,
@@ -27,6 +28,7 @@ __all__ = [
     "Job",
     "Sweep",
     "SweepResult",
+    "check_out",
     "damaged_records",
     "import_ray",
     "load_sweep",

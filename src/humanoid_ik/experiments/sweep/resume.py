@@ -22,7 +22,14 @@ from humanoid_ik.experiments.sweep.jobs import COLUMNS
 from humanoid_ik.experiments.sweep.summary import plot_summary, status_counts, write_summary
 from humanoid_ik.outputs.atomic import write_json
 
-__all__ = ["WORKER_LOG", "SweepResult", "damaged_records", "read_records", "run_sweep"]
+__all__ = [
+    "WORKER_LOG",
+    "SweepResult",
+    "check_out",
+    "damaged_records",
+    "read_records",
+    "run_sweep",
+]
 
 _RESULTS = "jobs"
 """The folder under ``out`` of the job records."""
@@ -132,12 +139,34 @@ def damaged_records(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[Path, s
     return damaged
 
 
+def check_out(out: str | os.PathLike) -> None:
+    """Fail unless a sweep can write ``out``: the nearest of ``out`` and the folders above
+    it that exists is a writable folder, and so is ``out/jobs`` if it exists. Checked
+    before a sweep announces or runs anything; nothing is created.
+
+    Raises:
+        SweepError: naming ``out`` and the folder that cannot be written.
+    """
+    out = Path(out)
+    base = next((p for p in (out, *out.parents) if p.exists()), Path("."))
+
+    def what(folder: Path) -> str:
+        return "it" if folder == out else f"folder '{folder}'"
+
+    if not base.is_dir():
+        raise SweepError(None, "", f"cannot write '{out}': {what(base)} is not a folder")
+    for folder in (base, out / _RESULTS):
+        if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
+            raise SweepError(None, "", f"cannot write '{out}': {what(folder)} is not writable")
+
+
 def _make_out(out: Path) -> None:
-    """Create ``out/jobs``.
+    """Create ``out/jobs`` (after :func:`check_out`).
 
     Raises:
         SweepError: it cannot be created.
     """
+    check_out(out)
     try:
         (out / _RESULTS).mkdir(parents=True, exist_ok=True)
     except OSError as exc:
