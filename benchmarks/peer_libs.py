@@ -58,7 +58,7 @@ from humanoid_ik.experiments.bench import not_reaching
 from humanoid_ik.outputs.atomic import write_text
 from humanoid_ik.outputs.urdf import BASE_LINK
 from humanoid_ik.solvers import make_solver
-from humanoid_ik.solvers.solve import solve
+from humanoid_ik.solvers.one_call import solve
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mink_step import PlainMinkLoop  # noqa: E402  (the one plain mink loop)

@@ -172,11 +172,11 @@ def test_auto_retries_a_pose_target_lm_misses_near_ur5s_straight_elbow():
 
 
 def test_solve_by_name_reuses_one_solver_object_per_name_and_options():
-    from humanoid_ik.solvers import registry
+    from humanoid_ik.solvers import one_call
 
-    a = registry._solver_for("lm", {"restarts": 5})
-    assert registry._solver_for("lm", {"restarts": 5}) is a
-    assert registry._solver_for("lm", {"restarts": 6}) is not a
+    a = one_call._solver_for("lm", {"restarts": 5})
+    assert one_call._solver_for("lm", {"restarts": 5}) is a
+    assert one_call._solver_for("lm", {"restarts": 6}) is not a
     chain = Chain()
     target = [0.35, -0.30, 1.15]
     assert np.array_equal(

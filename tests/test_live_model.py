@@ -103,7 +103,7 @@ def test_sync_reports_a_change_once_and_refresh_rereads():
         (lambda c: solve(c, "abc"), TargetError, "target position must be numbers"),
         (lambda c: solve(c, [0.3, None, 1.0]), TargetError, "is not finite"),
         (lambda c: solve(c, REACHABLE, quat="abc"), TargetError, "quaternion must be numbers"),
-        (lambda c: solve(c, REACHABLE, q0="x"), TargetError, "joint vector must be numbers"),
+        (lambda c: solve(c, REACHABLE, q0="x"), TargetError, "joint vector must be 7 real numbers"),
         (lambda c: c.fk([1, "a", 3, 4, 5, 6, 7]), TargetError, "joint vector must be numbers"),
         (lambda c: solve(c, REACHABLE, solver=5), SolverError, "solver must be a solver name"),
         (lambda c: solve(c, REACHABLE, data=object()), ChainError, "expected a mujoco.MjData"),

@@ -67,7 +67,7 @@ def test_trajectory_header(showcase):
     assert t.scene == "showcase" and t.scene_file == str(scene.path)
     assert t.model_file == str(bundled_model_path())
     assert t.model_sha256 == model_digest(bundled_model_path()) and len(t.model_sha256) == 16
-    assert [e.solver for e in t.effectors] == ["dls(restarts=0)", "dls(restarts=0)", "look_at"]
+    assert [e.solver for e in t.effectors] == ["dls", "dls", "look_at"]
     assert [e.site for e in t.effectors] == ["right_palm_site", "left_palm_site", "gaze_site"]
     assert [e.kind for e in t.effectors] == ["site", "site", "site"]
     assert t.fps == pytest.approx(2.0) and not t.interrupted
@@ -328,7 +328,7 @@ def test_run_command(tmp_path, capsys):
     assert main(["run", "showcase", "--frames", "6", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert text.startswith("showcase: 6 frame(s) at 1 frames/s")
-    assert "right_palm_site -> circle (dls(restarts=0)): reachable 6/6" in text
+    assert "right_palm_site -> circle (dls): reachable 6/6" in text
     for name in ("metrics.csv", "metrics.json", "trajectory.npz", "trajectory.csv"):
         assert (out / name).is_file() and f"wrote {out / name}" in text
     assert not list(out.glob("*.mp4")) and not list(out.glob("*.png"))

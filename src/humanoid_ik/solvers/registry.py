@@ -1,5 +1,5 @@
 """The solvers by name: :data:`SOLVERS`, the one list a new solver is added to, and
-``make_solver(name, **options)``. One-call IK, ``solve``, is :mod:`humanoid_ik.solvers.solve`.
+``make_solver(name, **options)``. One-call IK, ``solve``, is :mod:`humanoid_ik.solvers.one_call`.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def __getattr__(name: str) -> Any:
     if name == "solve":  # where it was, for one release
         import warnings
 
-        from humanoid_ik.solvers.solve import solve
+        from humanoid_ik.solvers.one_call import solve
 
         warnings.warn(
             f"{__name__}.solve is deprecated; use humanoid_ik.solve",
