@@ -14,7 +14,13 @@ import pytest
 
 from humanoid_ik.cli.app import main
 from humanoid_ik.config.placement import effector_chain
-from humanoid_ik.config.scene import bundled_scenes, check_scene, load_scene, parse_scene
+from humanoid_ik.config.scene import (
+    bundled_scenes,
+    bundled_scenes_dir,
+    check_scene,
+    load_scene,
+    parse_scene,
+)
 from humanoid_ik.config.specs import EffectorSpec
 from humanoid_ik.config.sweep_file import parse_sweep, target_set_chain
 from humanoid_ik.core.limbs import find_limbs, limb_chain
@@ -372,6 +378,29 @@ def test_showcase_on_talos_both_hands_and_the_gaze():
     assert scene.effectors[2].joints == ("head_1_joint", "head_2_joint")
     assert scene.notes == ()
     _check_frames(scene, runner, rec, gaze=True)
+
+
+def test_both_arms_with_the_torso_share_it_in_one_qp_on_g1(tmp_path):
+    """``torso = true`` on both arms: the waist is in both chains, which one solver that
+    moves several effectors (mink) solves jointly: both hands on target, the waist
+    moves, no joint out of range; a per-effector solver is refused in one line."""
+    text = (bundled_scenes_dir() / "upper_body_mink.toml").read_text()
+    for side in ("right", "left"):
+        text = text.replace(f'limb = "{side}_arm"\n', f'limb = "{side}_arm"\ntorso = true\n')
+    path = tmp_path / "torso.toml"
+    path.write_text(text)
+    scene = load_scene(path, model=G1).with_overrides(frames=20)
+    chains = check_scene(scene)
+    assert "waist_yaw_joint" in chains[0].joint_names and "waist_yaw_joint" in chains[1].joint_names
+    runner = SceneRunner(scene)
+    rec = runner.run()
+    _check_frames(scene, runner, rec, gaze=False)
+    waist = chains[0].qpos_adr[: list(chains[0].joint_names).index("waist_pitch_joint") + 1]
+    assert np.ptp(np.array(rec.qpos)[:, waist], axis=0).max() > 0.05  # the torso helps
+    dls = path.read_text().replace('name = "mink"', 'name = "dls"', 1)
+    path.write_text(dls.replace('collision_pairs = "limbs"', "", 1))
+    with pytest.raises(SceneError, match="joint 'waist_yaw_joint' is already moved by effectors"):
+        check_scene(load_scene(path, model=G1))
 
 
 def test_run_showcase_model_on_the_command_line(tmp_path, capsys):

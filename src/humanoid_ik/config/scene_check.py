@@ -118,6 +118,13 @@ def check_collision_pairs(scene: Scene, model: mujoco.MjModel) -> None:
                     raise r.expect(path, f"a geom of the model ({valid})", name)
 
 
+def _solved_together(scene: Scene, spec: SolverSpec, other: int) -> bool:
+    """An effector solved by ``spec`` and effector ``other`` may share joints: one
+    solver that moves several effectors (mink) solves both in one problem (both arms
+    with the torso, ``torso = true``)."""
+    return moves_several(spec.name) and scene.solver_for(scene.effectors[other]) == spec
+
+
 def _check_effector(
     r: _Messages,
     scene: Scene,
@@ -146,15 +153,16 @@ def _check_effector(
         raise r.expect(f"{key}.{exc.field}", exc.expected, exc.got) from None
     except HumanoidIKError as exc:
         raise r.fail(f"{key}.joints", str(exc)) from None
+    spec = scene.solver_for(eff)
     for j in chain.joint_names:
-        if j in owner:
+        if j in owner and not _solved_together(scene, spec, owner[j]):
             raise r.fail(
                 f"{key}.joints",
                 f"joint '{j}' is already moved by effectors[{owner[j]}]; expected "
-                "effectors with separate joints (set joints = [...])",
+                "effectors with separate joints (set joints = [...]), or one solver that "
+                "moves several effectors (mink) for both",
             )
-        owner[j] = i
-    spec = scene.solver_for(eff)
+        owner.setdefault(j, i)
     target = scene.target(eff.target)
     where = f"{key}.solver.name" if eff.solver is not None else "solver.name"
     if eff.task == "reach" and spec.name == "look_at":
