@@ -11,6 +11,7 @@ import math
 import warnings
 from pathlib import Path
 
+import bvhio
 import mujoco
 import numpy as np
 import pytest
@@ -175,8 +176,12 @@ def test_cli_writes_the_files_and_reads_back(tmp_path, capsys):
     assert main(["retarget", str(clip), "--out", str(out), "--frames", "30"]) == 0
     text = capsys.readouterr().out
     assert "left hand: median" in text and "wrote" in text
-    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == sorted(CLIP_FILES)
+    names = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert names == sorted([*CLIP_FILES, "robot.bvh"])
     doc = json.loads((out / "metrics.json").read_text())
+    assert doc["bvh"] == "robot.bvh"
+    bvh = bvhio.readAsBvh(str(out / "robot.bvh"))  # an independent reader parses it
+    assert bvh.FrameCount == 30
     assert doc["summary"]["frames"] == 30 and doc["human"]["names"]["head"] == "Head"
     traj = load_trajectory(out / "trajectory.npz")
     assert traj.n_frames == 30 and [e.task for e in traj.effectors] == ["reach", "reach", "look_at"]
@@ -331,7 +336,7 @@ def test_film_is_part_of_the_clip_set(tmp_path):
     out = tmp_path / "out"
     res = retarget(clip, None, out, frames=6, film=film, plot=False)
     snaps = [f"frame_{i:04d}.png" for i in (0, 2, 3, 5)]
-    want = sorted({*CLIP_FILES, *FILM_FILES, *snaps} - {"metrics.png"})
+    want = sorted({*CLIP_FILES, *FILM_FILES, *snaps, "robot.bvh"} - {"metrics.png"})
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == want
     assert not [p for p in out.iterdir() if p.is_dir()]  # no staging folder left
     assert sorted(published(out)) == want and sorted(p.name for p in res.files) == want

@@ -4,10 +4,11 @@ one set; and a folder of clips, resumable, with a summary table.
 Files of one clip (``staged_outputs``: they replace the previous run's as one set):
 ``trajectory.npz``/``trajectory.csv`` (the robot's motion, as any run's: one effector
 per hand, ``reach``, and the gaze, ``look_at``), ``keys.xml`` (MuJoCo keyframes, one per
-frame), ``metrics.csv`` (per frame, :mod:`.metrics`), ``metrics.json`` (what was
-mapped, the settings and the summary) and ``metrics.png``; with a film, ``film.mp4``,
-the ``frame_NNNN.png`` snapshots and ``contact_sheet.png`` (the robot and the human
-skeleton beside it, ``outputs/render/skeleton.py``).
+frame), ``robot.bvh`` (the robot's motion for animation tools, where BVH can hold it;
+``metrics.json``'s ``bvh`` says), ``metrics.csv`` (per frame, :mod:`.metrics`),
+``metrics.json`` (what was mapped, the settings and the summary) and ``metrics.png``;
+with a film, ``film.mp4``, the ``frame_NNNN.png`` snapshots and ``contact_sheet.png``
+(the robot and the human skeleton beside it, ``outputs/render/skeleton.py``).
 
 A clip's name (the trajectory's scene, a folder run's output folder) is the file's stem
 made a :data:`~humanoid_ik.core.names.NAME` (:func:`clip_name`).
@@ -32,7 +33,7 @@ from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model, model_file
 from humanoid_ik.core.names import MAX_NAME, name_ok
 from humanoid_ik.core.robot import joint_name
-from humanoid_ik.errors import RetargetError
+from humanoid_ik.errors import RetargetError, TrajectoryFileError
 from humanoid_ik.experiments.retarget.elbow import elbow_error
 from humanoid_ik.experiments.retarget.human import HumanSide, Mapping, find_human
 from humanoid_ik.experiments.retarget.metrics import FrameTable, jerk, plot_retarget
@@ -41,6 +42,7 @@ from humanoid_ik.experiments.retarget.solve import Retargeter
 from humanoid_ik.experiments.retarget.targets import BENT, REACH, Targets, scaled_targets
 from humanoid_ik.motion.bvh import BVHClip, read_bvh
 from humanoid_ik.outputs.atomic import published, staged_outputs, write_json, write_text
+from humanoid_ik.outputs.bvh import bvh_text
 from humanoid_ik.outputs.keyframes import keyframes_xml
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.trajectory import EffectorTrack, Trajectory, qpos_names
@@ -219,6 +221,7 @@ def retarget(
         with staged_outputs(out) as staging:
             write_trajectory(traj, staging)
             write_text(staging / "keys.xml", keyframes_xml(traj))
+            doc["bvh"] = _robot_bvh(traj, robot.model, staging)
             write_text(staging / "metrics.csv", table.csv_text())
             if plot:
                 title = f"{traj.scene} on {model_label(model)} ({solver})"
@@ -229,6 +232,17 @@ def retarget(
             write_json(staging / "metrics.json", doc)
         files = [out / n for n in published(out)]
     return RetargetResult(doc, files, traj, table)
+
+
+def _robot_bvh(traj: Trajectory, model: Any, folder: Path) -> str:
+    """Write the robot's motion as ``robot.bvh`` into ``folder`` (``export-bvh``'s
+    writer) and say so; a robot BVH cannot hold (a slide joint that moves, hinges of
+    one body about different points) is said instead, the keyframes holding it."""
+    try:
+        write_text(folder / "robot.bvh", bvh_text(traj, model))
+    except TrajectoryFileError as exc:
+        return f"not written: {exc}"
+    return "robot.bvh"
 
 
 def _film(
