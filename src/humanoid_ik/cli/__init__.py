@@ -7,7 +7,9 @@ start-up ends with the usual one line and status 130, not an import traceback.
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from humanoid_ik.cli.interrupts import interrupted
@@ -33,14 +35,35 @@ def _import_mujoco() -> None:
             os.environ["MUJOCO_GL"] = value
 
 
+class _StartUpSigint:
+    """Python's Ctrl-C handler that also remembers it ran: an extension's import can turn
+    the ``KeyboardInterrupt`` into its own error without chaining it (numpy's
+    "Importing the numpy C-extensions failed"), so the start-up asks this instead."""
+
+    def __init__(self) -> None:
+        self.seen = False
+
+    def __call__(self, signum: int, frame: object) -> None:
+        self.seen = True
+        signal.default_int_handler(signum, frame)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (see :mod:`humanoid_ik.cli.app`)."""
+    sigint = _StartUpSigint()
+    previous = None
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    if in_main_thread and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        previous = signal.signal(signal.SIGINT, sigint)
     try:
         _import_mujoco()
         from humanoid_ik.cli.app import main as run
     except BaseException as exc:
-        if not interrupted(exc):
+        if not (sigint.seen or interrupted(exc)):
             raise
         print("humanoid-ik: interrupted", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     return run(argv)
