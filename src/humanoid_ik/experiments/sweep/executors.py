@@ -124,7 +124,7 @@ def run_local(
 
     The workers end with this process whatever ends it (:func:`die_with`: the read end
     of a pipe goes to each worker, the write end stays here). Ctrl-C
-    cancels the jobs not yet started and is raised again.
+    ends the workers, so no job runs on, and is raised again.
 
     Args:
         jobs, workers, on_done: what to run, on how many processes, and the callback.
@@ -162,9 +162,10 @@ def run_local(
                             rec = failed(job, exc)
                         on_done(job, rec)
             except BaseException:  # Ctrl-C, even while the jobs are being submitted
-                for fut in pending:
-                    fut.cancel()
-                alive.close()  # the workers end now: the pool's shutdown waits for none
+                # the workers end now, so the pool breaks and fails every pending job
+                # itself (cancelling them here raced with that: Python 3.11's pool then
+                # printed an InvalidStateError traceback); nothing more is recorded
+                alive.close()
                 raise
     finally:  # after the pool's shutdown: its workers have exited
         alive.close()
