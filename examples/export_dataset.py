@@ -53,7 +53,7 @@ def main(argv: list[str]) -> int:
         pos_err = max(pos_err, float(np.linalg.norm(p_fk - p)))
         rot_err = max(rot_err, float(np.abs(R_fk - quat_to_mat(quat)).max()))
     print(f"{len(data.q)} pairs, joints {', '.join(joints)}")
-    print(f"closed form solved {int(data.closed_form_ok.sum())} of {len(data.q)}")
+    print(f"closed form solved {int(data.ok.sum())} of {len(data.q)}")
     print(f"max FK error {pos_err:.3e} m, rotation {rot_err:.3e}")
     print(f"wrote {npz}")
     print(f"wrote {csv}")

@@ -47,6 +47,7 @@ _EXPORTS = {
     "Solver": "humanoid_ik.solvers",
     "make_solver": "humanoid_ik.solvers",
     "solve": "humanoid_ik.solvers",
+    "solve_batch": "humanoid_ik.solvers",
     "ClosedForm": "humanoid_ik.solvers.analytic.closed_form",
     "ClosedFormOptions": "humanoid_ik.solvers.analytic.closed_form",
     "TwoLink": "humanoid_ik.solvers.analytic.two_link",
@@ -145,7 +146,7 @@ if TYPE_CHECKING:
         TargetError,
         UnsupportedJointError,
     )
-    from humanoid_ik.solvers import SOLVERS, Solver, make_solver, solve
+    from humanoid_ik.solvers import SOLVERS, Solver, make_solver, solve, solve_batch
     from humanoid_ik.solvers.analytic.closed_form import ClosedForm, ClosedFormOptions
     from humanoid_ik.solvers.analytic.two_link import TwoLink, TwoLinkOptions
     from humanoid_ik.solvers.auto import Auto

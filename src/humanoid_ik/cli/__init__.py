@@ -11,6 +11,7 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+from types import FrameType
 
 from humanoid_ik.cli.interrupts import interrupted
 
@@ -43,7 +44,7 @@ class _StartUpSigint:
     def __init__(self) -> None:
         self.seen = False
 
-    def __call__(self, signum: int, frame: object) -> None:
+    def __call__(self, signum: int, frame: FrameType | None) -> None:
         self.seen = True
         signal.default_int_handler(signum, frame)
 

@@ -1,6 +1,6 @@
 """``humanoid-ik dataset --n N --out FILE [--seed S] [--chunk C] [--model PATH]
-[--site NAME | --body NAME | --arm SIDE | --limb NAME] [--joints a,b]``: write (target
-pose, joint solution) pairs."""
+[--site NAME | --body NAME | --arm SIDE | --limb NAME] [--joints a,b] [--solver NAME]``:
+write (target pose, joint solution) pairs on any arm."""
 
 from __future__ import annotations
 
@@ -46,6 +46,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
             model=args.model,
             progress=progress,
             chain=chain,
+            solver=args.solver,
         )
     finally:
         if bar is not None:
@@ -61,9 +62,10 @@ def register(subparsers: Any) -> None:
     """Add ``dataset`` to the ``humanoid-ik`` subcommands."""
     p = subparsers.add_parser(
         "dataset",
-        help="write N (target pose, joint solution) pairs with the closed-form solver",
+        help="write N (target pose, joint solution) pairs of an arm",
         description="Write N seeded (target pose, joint solution) pairs into an .npz file, "
-        "in chunks; the same seed and N always give the same file.",
+        "in chunks; the same seed and N always give the same file. The solver is "
+        "closed_form where it fits the arm (7 hinges), else auto.",
     )
     p.add_argument(
         "--n",
@@ -82,6 +84,11 @@ def register(subparsers: Any) -> None:
         default=65536,
         metavar="C",
         help=f"pairs per chunk (at most {MAX_CHUNK:,})",
+    )
+    p.add_argument(
+        "--solver",
+        metavar="NAME",
+        help="the solver of every pair (default: closed_form where it fits, else auto)",
     )
     add_chain_args(p)
     p.set_defaults(func=_cmd_dataset)

@@ -84,6 +84,21 @@ class Target:
         object.__setattr__(self, "rotation", R)
 
     @classmethod
+    def unchecked(
+        cls,
+        position: NDArray[np.float64],
+        quat: NDArray[np.float64] | None = None,
+        rotation: NDArray[np.float64] | None = None,
+        pole: NDArray[np.float64] | None = None,
+    ) -> Target:
+        """A target from the fields of one already made (and so checked), taken as they
+        are: what :func:`~humanoid_ik.solvers.batch.solve_batch` rebuilds from the
+        arrays it sends to its worker processes (15 us a target saved there)."""
+        new = object.__new__(cls)
+        new.__dict__.update(position=position, quat=quat, pole=pole, rotation=rotation)
+        return new
+
+    @classmethod
     def of(cls, target: Target | ArrayLike, quat: ArrayLike | None = None) -> Target:
         """A ``Target`` from a ``Target`` or a position (and an optional quaternion; a
         ``Target``'s pole is kept)."""
@@ -199,6 +214,13 @@ class IKResult:
         object.__setattr__(self, "q", q)
         if isinstance(self.details, dict):
             object.__setattr__(self, "details", MappingProxyType(self.details.copy()))
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled with ``details`` as a plain dict (a ``MappingProxyType`` does not
+        pickle), so results come back from worker processes (``solve_batch``)."""
+        fields = (self.q, self.converged, self.iterations, self.position_error)
+        rest = (self.orientation_error, self.status.value, self.solver, self.message)
+        return (IKResult, (*fields, *rest, dict(self.details)))
 
     def with_details(self, **extra: Any) -> IKResult:
         """This result with ``extra`` added to its ``details`` (the other fields shared:

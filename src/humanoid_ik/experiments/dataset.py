@@ -1,11 +1,14 @@
-"""IK datasets: many (target pose, joint solution) pairs from the closed-form solver.
+"""IK datasets: many (target pose, joint solution) pairs, on any arm.
 
 Each pair is made from a uniform random in-range joint vector ``q_s``: the target is the
-end effector's pose at ``q_s`` (MuJoCo FK), and the stored solution is what
-:func:`~humanoid_ik.solvers.analytic.closed_form.solve_batch` returns for that pose, started from
-the chain's home posture (the feasible swivel closest to home's). Where the closed form
-finds no solution (not expected: every target is reachable inside the ranges) ``q_s``
-itself is stored and ``closed_form_ok`` is False for that row.
+end effector's pose at ``q_s`` (MuJoCo FK), and the stored solution is the solver's answer
+for that pose, started from the chain's home posture. The solver is ``closed_form`` where
+it fits the chain (a 7-hinge arm: its vectorised
+:func:`~humanoid_ik.solvers.analytic.closed_form.solve_batch`, the feasible swivel
+closest to home's), else ``auto`` (:func:`~humanoid_ik.solvers.batch.solve_batch`, one
+target at a time); ``solver=`` picks another. Where the solver finds no solution (rare:
+every target is reachable inside the ranges) ``q_s`` itself is stored and ``ok`` is False
+for that row.
 
 Randomness comes in fixed blocks of :data:`BLOCK` samples, block ``k`` drawn from
 ``numpy.random.default_rng([seed, k])``, and every block is solved as a whole, so a seed
@@ -19,7 +22,7 @@ member             shape       meaning
 ``positions``      ``(N, 3)``  target positions [m], world frame
 ``quats``          ``(N, 4)``  target orientations, unit wxyz with ``w >= 0``
 ``q``              ``(N, n)``  joint solutions [rad], in ``meta["joints"]`` order
-``closed_form_ok`` ``(N,)``    True where ``q`` comes from the closed form
+``ok``             ``(N,)``    True where ``q`` is the solver's converged answer
 ``meta``           ``()``      JSON text: format, model, site (or body), joints, seed, n, ...
 =================  ==========  ==========================================================
 
@@ -65,12 +68,14 @@ __all__ = [
 
 BLOCK = 4096
 """Samples per seeded block (fixed: changing it changes every dataset)."""
-FORMAT = "humanoid_ik.dataset/1"
+FORMAT = "humanoid_ik.dataset/2"
+"""Format 2 (member ``ok``, any solver); format 1 files (member ``closed_form_ok``) read too."""
+_FORMAT_1 = "humanoid_ik.dataset/1"
 MAX_PAIRS = 100_000_000
 """Most pairs in one dataset (about 11 GB for a 7-joint arm)."""
 MAX_CHUNK = 1 << 20
 """Most pairs made and held in memory per step (about 120 MB for a 7-joint arm)."""
-_ARRAYS = ("positions", "quats", "q", "closed_form_ok")
+_ARRAYS = ("positions", "quats", "q", "ok")
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
 
@@ -83,22 +88,32 @@ class Dataset(NamedTuple):
     """Target orientations ``(N, 4)``, wxyz."""
     q: NDArray[np.float64]
     """Joint solutions ``(N, n)`` [rad]."""
-    closed_form_ok: NDArray[np.bool_]
-    """``(N,)``: True where the closed form gave the solution."""
+    ok: NDArray[np.bool_]
+    """``(N,)``: True where ``q`` is the solver's converged answer."""
     meta: dict[str, Any]
     """Format, model, the end effector's name under ``site`` or ``body``, joint names,
     seed, n, block and solver."""
 
+    @property
+    def closed_form_ok(self) -> NDArray[np.bool_]:
+        """Deprecated name of :attr:`ok` (format 1's member), for one release."""
+        import warnings
+
+        warnings.warn("Dataset.closed_form_ok is now Dataset.ok", DeprecationWarning, 2)
+        return self.ok
+
 
 def make_block(
-    chain: Chain, seed: int, block: int
+    chain: Chain, seed: int, block: int, solver: str = "closed_form"
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Block ``block`` of the dataset with seed ``seed``: :data:`BLOCK` pairs.
+    """Block ``block`` of the dataset with seed ``seed``: :data:`BLOCK` pairs, solved by
+    ``solver`` from the chain's home posture.
 
     Returns:
         ``positions (B, 3)``, ``quats (B, 4)``, ``q (B, n)``, ``ok (B,)``.
     """
-    from humanoid_ik.solvers.analytic.closed_form import solve_batch
+    from humanoid_ik.solvers.analytic.closed_form import solve_batch as closed_form_batch
+    from humanoid_ik.solvers.batch import solve_batch
 
     rng = np.random.default_rng([seed, block])
     lo = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)
@@ -111,7 +126,12 @@ def make_block(
         positions[i] = p
         quats[i] = mat_to_quat(R)
     chain.reset()
-    q, ok = solve_batch(chain, positions, quats)
+    if solver == "closed_form":
+        q, ok = closed_form_batch(chain, positions, quats)
+    else:
+        results = solve_batch(chain, positions, solver, quats=quats, q0=chain.q_home)
+        q = np.array([r.q for r in results]).reshape(BLOCK, chain.n)
+        ok = np.array([r.converged for r in results], dtype=bool)
     q = np.where(ok[:, None], q, q_s)
     return positions, quats, q, ok
 
@@ -128,6 +148,7 @@ def write_dataset(
     progress: Callable[[int, int], None] | None = None,
     packages: PackagePaths | None = None,
     chain: Chain | None = None,
+    solver: str | None = None,
 ) -> Path:
     """Write ``n`` (target pose, joint solution) pairs to ``path`` (``.npz``).
 
@@ -144,16 +165,17 @@ def write_dataset(
         chain: the chain itself (a body's, a limb's: what the command line's ``--body``,
             ``--arm`` and ``--limb`` name), instead of ``site`` and ``joints``; ``model``
             then only names its file in ``meta``.
+        solver: the solver of every pair (a name of ``SOLVERS`` that takes pose
+            targets); default ``closed_form`` where it fits the chain, else ``auto``.
 
     Returns:
         ``path``.
 
     Raises:
-        DatasetError: ``n``, ``seed`` or ``chunk`` out of range, a chain the closed form
-            does not fit, or an output folder that does not exist.
+        DatasetError: ``n``, ``seed`` or ``chunk`` out of range, a solver that does not
+            fit the chain, or an output folder that does not exist.
+        SolverError: an unknown solver.
     """
-    from humanoid_ik.solvers.analytic.closed_form import ClosedForm
-
     for name, value, low, high in (
         ("n", n, 1, MAX_PAIRS),
         ("seed", seed, 0, None),
@@ -173,9 +195,7 @@ def write_dataset(
         chain = Chain(load_model(model, packages=packages), site, joints)
     elif site is not None or joints is not None:
         raise DatasetError("give a chain or its site and joints, not both")
-    reason = ClosedForm().applicable(chain, True)
-    if reason is not None:
-        raise DatasetError(f"closed_form does not fit chain {chain.ee_name}: {reason}")
+    solver = _dataset_solver(chain, solver)
     need, free = bytes_needed(int(n), chain.n), shutil.disk_usage(out.parent).free
     if need > free:
         raise DatasetError(
@@ -190,17 +210,31 @@ def write_dataset(
         "seed": int(seed),
         "n": int(n),
         "block": BLOCK,
-        "solver": "closed_form",
+        "solver": solver,
         "target": "FK of uniform random in-range joints",
         "quat": "wxyz, w >= 0",
         "units": {"positions": "m", "q": "rad"},
     }
     n, seed = int(n), int(seed)
     with atomic_dir(out) as tmpdir:
-        _write_chunks(chain, n, seed, chunk, tmpdir, progress)
+        _write_chunks(chain, n, seed, chunk, tmpdir, progress, solver)
         with atomic_path(out) as tmp_zip:
             _pack(tmpdir, tmp_zip, n, chain.n, meta)
     return out
+
+
+def _dataset_solver(chain: Chain, solver: str | None) -> str:
+    """The solver of a dataset on ``chain``: ``solver`` checked, or the default."""
+    from humanoid_ik.solvers import make_solver
+
+    if solver is None:
+        return (
+            "closed_form" if make_solver("closed_form").applicable(chain, True) is None else "auto"
+        )
+    reason = make_solver(solver).applicable(chain, True)  # an unknown name: SolverError
+    if reason is not None:
+        raise DatasetError(f"{solver} does not fit chain {chain.ee_name}: {reason}")
+    return solver
 
 
 def bytes_needed(n: int, n_joints: int) -> int:
@@ -217,6 +251,7 @@ def _write_chunks(
     chunk: int,
     folder: Path,
     progress: Callable[[int, int], None] | None,
+    solver: str,
 ) -> None:
     """Make the first ``n`` pairs of seed ``seed``, ``chunk`` at a time, appending each
     array's bytes to ``folder/<name>.raw`` (memory: a few blocks)."""
@@ -228,7 +263,7 @@ def _write_chunks(
             parts: list[list[np.ndarray]] = [[] for _ in _ARRAYS]
             for k in range(a // BLOCK, (b - 1) // BLOCK + 1):
                 if cached is None or cached[0] != k:
-                    cached = (k, make_block(chain, seed, k))
+                    cached = (k, make_block(chain, seed, k, solver))
                 lo, hi = max(a, k * BLOCK) - k * BLOCK, min(b, (k + 1) * BLOCK) - k * BLOCK
                 for j, arr in enumerate(cached[1]):
                     parts[j].append(arr[lo:hi])
@@ -245,8 +280,8 @@ def _pack(folder: Path, path: Path, n: int, n_joints: int, meta: dict[str, Any])
     """Pack the raw arrays in ``folder`` (``n`` rows, ``n_joints`` joints) and ``meta``
     into the ``.npz`` at ``path``, with fixed timestamps (the same content, the same
     bytes)."""
-    shapes = {"positions": (n, 3), "quats": (n, 4), "q": (n, n_joints), "closed_form_ok": (n,)}
-    dtypes = {"closed_form_ok": np.dtype(np.bool_)}
+    shapes = {"positions": (n, 3), "quats": (n, 4), "q": (n, n_joints), "ok": (n,)}
+    dtypes = {"ok": np.dtype(np.bool_)}
     zf = zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True)
     try:
         _pack_into(zf, folder, shapes, dtypes, meta)
@@ -300,17 +335,21 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
     p = Path(path)
     try:
         with np.load(p, allow_pickle=False) as npz:
-            missing = [k for k in (*_ARRAYS, "meta") if k not in npz.files]
+            old = "closed_form_ok" in npz.files and "ok" not in npz.files  # format 1
+            members = {k: "closed_form_ok" if old and k == "ok" else k for k in _ARRAYS}
+            missing = [m for m in (*members.values(), "meta") if m not in npz.files]
             if missing:
                 raise DatasetError(
                     f"'{p}' is not a humanoid_ik dataset: no {', '.join(missing)} in it"
                 )
-            arrays = {k: npz[k] for k in _ARRAYS}
+            arrays = {k: npz[m] for k, m in members.items()}
             meta = json.loads(str(npz["meta"]))
     except HumanoidIKError:
         raise
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
         raise DatasetError(f"cannot read dataset '{p}': {exc}") from None
-    if meta.get("format") != FORMAT:
-        raise DatasetError(f"'{p}' has format {meta.get('format')!r}; expected {FORMAT!r}")
+    if meta.get("format") not in (FORMAT, _FORMAT_1):
+        raise DatasetError(
+            f"'{p}' has format {meta.get('format')!r}; expected {FORMAT!r} or {_FORMAT_1!r}"
+        )
     return Dataset(meta=meta, **arrays)

@@ -1,0 +1,76 @@
+"""Pose solves per second with ``solve_batch`` on real arms, on 1 and on 2 processes.
+
+Arms from example-robot-data (the test extra): G1's left arm (7 hinges, ``auto`` picks
+``lm``) and UR5 (6 hinges); the bundled arm through ``closed_form``'s vectorised batch
+for comparison. Targets are FK poses of seeded random in-range joints, every solve
+from the home pose. Prints targets/s by wall time (the processes' start included) and
+the calling process's CPU time (``time.process_time``; the workers' CPU is not in it)::
+
+    python benchmarks/batch.py --targets 20000
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from humanoid_ik import Chain, Target, load_model, solve_batch  # noqa: E402
+from humanoid_ik.core.rotations import mat_to_quat  # noqa: E402
+from humanoid_ik.solvers.analytic.closed_form import solve_batch as closed_form_batch  # noqa: E402
+from tests.robots import robot_file  # noqa: E402
+
+
+def poses(chain: Chain, n: int, seed: int) -> list[Target]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        p, R = chain.fk(rng.uniform(chain.lower, chain.upper))
+        out.append(Target(p, mat_to_quat(R)))
+    return out
+
+
+def arms() -> dict[str, Chain]:
+    g1 = Chain(load_model(robot_file("g1")), body="left_rubber_hand")
+    ur5 = load_model(robot_file("ur5"))
+    return {
+        "g1 left arm": Chain(g1.robot, body="left_rubber_hand", joints=g1.joint_names[3:]),
+        "ur5": Chain(ur5, body="tool0"),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--targets", type=int, default=20000)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    print("| arm | solver | processes | solved | targets/s wall | CPU s (caller) |")
+    print("|---|---|---|---|---|---|")
+    for name, chain in arms().items():
+        targets = poses(chain, args.targets, args.seed)
+        for workers in (1, 2):
+            t0, c0 = time.perf_counter(), time.process_time()
+            res = solve_batch(chain, targets, "auto", q0=chain.q_home, workers=workers)
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            ok = sum(r.converged for r in res) / len(res)
+            print(f"| {name} | auto | {workers} | {ok:.1%} | {len(res) / wall:,.0f} | {cpu:.2f} |")
+    bundled = Chain()
+    targets = poses(bundled, args.targets, args.seed)
+    p = np.array([t.position for t in targets])
+    qt = np.array([t.quat for t in targets])
+    t0, c0 = time.perf_counter(), time.process_time()
+    _q, ok = closed_form_batch(bundled, p, qt, bundled.q_home)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    print(
+        f"| bundled arm | closed_form (vectorised) | 1 | {ok.mean():.1%} "
+        f"| {len(p) / wall:,.0f} | {cpu:.2f} |"
+    )
+
+
+if __name__ == "__main__":
+    main()

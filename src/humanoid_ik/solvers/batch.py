@@ -1,0 +1,186 @@
+"""Many targets of one chain at once: :func:`solve_batch`, on one core or several.
+
+Every target is solved on its own from the same start, exactly as :func:`~.one_call.solve`
+solves it: the answers are the single calls' bit for bit, whatever ``workers`` is. With
+``workers`` above 1 the targets go in contiguous chunks to that many processes, each
+holding its own copy of the robot (the model as it is now, and its current joints); a
+process costs about half a second to start (it imports MuJoCo), so this pays from a few
+thousand targets on.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.robot import Robot
+from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.errors import SolverError, TargetError
+from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.one_call import solve
+
+__all__ = ["solve_batch"]
+
+CHUNKS_PER_WORKER = 4
+"""Chunks each process gets (a few, so that a slow chunk does not hold the others up)."""
+
+_WORKER: dict[str, Any] = {}
+"""A worker process's chain, start and solver (set once by :func:`_start_worker`)."""
+
+
+def _targets(targets: Sequence[Target] | ArrayLike, quats: ArrayLike | None) -> list[Target]:
+    """``targets`` as :class:`Target` objects: a sequence of them, or positions ``(N, 3)``
+    with orientations ``(N, 4)`` wxyz or ``None``."""
+    if isinstance(targets, Sequence) and all(isinstance(t, Target) for t in targets):
+        if quats is not None:
+            raise TargetError("quats go with positions (N, 3), not with Target objects")
+        return list(targets)
+    p = np.asarray(targets, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise TargetError(
+            f"targets must be Target objects or positions (N, 3) [m], got shape {p.shape}"
+        )
+    if quats is None:
+        return [Target(row) for row in p]
+    qt = np.asarray(quats, dtype=np.float64)
+    if qt.shape != (len(p), 4):
+        raise TargetError(
+            f"quats must be ({len(p)}, 4) wxyz to go with the positions, got {qt.shape}"
+        )
+    return [Target(row, quat) for row, quat in zip(p, qt, strict=True)]
+
+
+def _start_worker(
+    model: mujoco.MjModel,
+    qpos: NDArray[np.float64],
+    ee: tuple[str, str],
+    joints: list[str],
+    q0: NDArray[np.float64],
+    solver: str | Solver,
+    options: dict[str, Any],
+) -> None:
+    """A worker's copy of the caller's chain: the same model, joints and robot pose."""
+    robot = Robot(model)
+    robot.data.qpos[:] = qpos
+    mujoco.mj_kinematics(robot.model, robot.data)
+    kind, name = ee
+    chain = Chain(robot, joints=joints, **{kind: name})
+    _WORKER.update(chain=chain, q0=q0, solver=solver, options=options)
+
+
+Packed = tuple[NDArray[np.float64], ...]
+"""Targets as arrays (:func:`_packed`): positions, orientations, rotations, poles."""
+
+
+def _solve_chunk(chunk: Packed) -> list[tuple[Any, ...]]:
+    """A worker's answers to a chunk of targets (sent as arrays: they cross the pipe far
+    cheaper than objects), each as the arguments of its :class:`IKResult` (the same,
+    rebuilt in the caller)."""
+    w = _WORKER
+    positions, quats, rotations, poles = chunk
+    out = []
+    for i in range(len(positions)):
+        posed = not np.isnan(quats[i, 0])
+        target = Target.unchecked(
+            positions[i],
+            quats[i] if posed else None,
+            rotations[i] if posed else None,
+            None if np.isnan(poles[i, 0]) else poles[i],
+        )
+        result = solve(w["chain"], target, w["solver"], q0=w["q0"], **w["options"])
+        out.append(result.__reduce__()[1])
+    return out
+
+
+def _packed(targets: list[Target]) -> Packed:
+    """Targets as arrays: positions ``(N, 3)``, orientations ``(N, 4)``, their rotations
+    ``(N, 3, 3)`` and poles ``(N, 3)``, with NaN rows where a target has none."""
+
+    def stack(
+        values: list[NDArray[np.float64] | None], shape: tuple[int, ...]
+    ) -> NDArray[np.float64]:
+        out = np.full((len(values), *shape), np.nan)
+        for i, v in enumerate(values):
+            if v is not None:
+                out[i] = v
+        return out
+
+    arrays = (
+        stack([t.position for t in targets], (3,)),
+        stack([t.quat for t in targets], (4,)),
+        stack([t.rotation for t in targets], (3, 3)),
+        stack([t.pole for t in targets], (3,)),
+    )
+    for a in arrays:
+        a.setflags(write=False)
+    return arrays
+
+
+def solve_batch(
+    chain: Chain,
+    targets: Sequence[Target] | ArrayLike,
+    solver: str | Solver = "auto",
+    *,
+    quats: ArrayLike | None = None,
+    q0: ArrayLike | None = None,
+    workers: int = 1,
+    **options: Any,
+) -> list[IKResult]:
+    """Solve IK for ``chain`` toward each of ``targets``, each from the same start.
+
+    Args:
+        chain: the kinematic chain (its robot's other joints keep their current values).
+        targets: :class:`Target` objects, or positions ``(N, 3)`` [m].
+        solver: a solver name (default ``auto``) or a solver object, as for ``solve``.
+        quats: orientations ``(N, 4)`` wxyz for positions given as an array.
+        q0: the start ``(n,)`` of every solve [rad]; default the chain's current joints.
+        workers: processes to solve on (1: this one; ``0``: one per core).
+        **options: solver options, when ``solver`` is a name.
+
+    Returns:
+        One :class:`IKResult` per target, in order, equal to ``solve(chain, target,
+        solver, q0=q0, **options)`` for each.
+
+    Raises:
+        HumanoidIKError: a bad target, solver, option or ``workers``; nothing is solved.
+    """
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
+        raise SolverError(f"workers must be an integer >= 0 (0: one per core), got {workers!r}")
+    items = _targets(targets, quats)
+    start = chain.q if q0 is None else np.asarray(q0, dtype=np.float64)
+    if not items:
+        return []
+    n_workers = min(int(workers) or (os.cpu_count() or 1), len(items))
+    first = solve(chain, items[0], solver, q0=start, **options)  # checks solver and start
+    if n_workers <= 1:
+        return [first] + [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
+    packed = _packed(items[1:])
+    size = -(-len(packed[0]) // (n_workers * CHUNKS_PER_WORKER))
+    chunks = [tuple(a[i : i + size] for a in packed) for i in range(0, len(packed[0]), size)]
+    methods = mp.get_all_start_methods()
+    ctx = mp.get_context("forkserver" if "forkserver" in methods else "spawn")
+    ee = (chain.ee_kind, chain.ee_name)
+    args = (
+        chain.model,
+        chain.data.qpos.copy(),
+        ee,
+        list(chain.joint_names),
+        start,
+        solver,
+        options,
+    )
+    with ProcessPoolExecutor(
+        n_workers, mp_context=ctx, initializer=_start_worker, initargs=args
+    ) as pool:
+        results = [first]
+        for part in pool.map(_solve_chunk, chunks):
+            results.extend(IKResult(*fields) for fields in part)
+    return results

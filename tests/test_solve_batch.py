@@ -1,0 +1,98 @@
+"""``solve_batch``: many targets of one chain, each answer the one-call ``solve``'s bit
+for bit, in this process or on worker processes (real ones, each with its own copy of
+the robot), on a real arm (G1's left arm, from example-robot-data)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from humanoid_ik import Chain, Target, TargetError, load_model, solve, solve_batch
+from humanoid_ik.core.rotations import mat_to_quat
+from humanoid_ik.errors import SolverError
+from tests.robots import robot_file
+
+
+def _poses(chain: Chain, n: int, seed: int) -> list[Target]:
+    """FK poses of seeded random in-range joints."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        p, R = chain.fk(rng.uniform(chain.lower, chain.upper))
+        out.append(Target(p, mat_to_quat(R)))
+    return out
+
+
+@pytest.fixture(scope="module")
+def g1_arm() -> Chain:
+    """G1's left arm without the waist (7 hinges), its waist turned so that the arm's
+    base is not where the model's home puts it (the workers must copy the pose)."""
+    chain = Chain(load_model(robot_file("g1")), body="left_rubber_hand")
+    arm = Chain(chain.robot, body="left_rubber_hand", joints=chain.joint_names[3:])
+    waist = chain.joint_names[:3]
+    chain.set_q(np.r_[[0.3, 0.0, 0.1], arm.q_home])
+    assert len(waist) == 3 and arm.n == 7
+    return arm
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_batch_answers_are_the_single_calls(g1_arm, workers):
+    """40 pose targets: each result equals ``solve``'s from the same start (joints, status,
+    iterations, errors), on 1 and on 2 processes, and every pose is met."""
+    targets = _poses(g1_arm, 40, seed=workers)
+    q0 = g1_arm.q_home
+    batch = solve_batch(g1_arm, targets, "auto", q0=q0, workers=workers)
+    assert len(batch) == 40
+    for t, got in zip(targets, batch, strict=True):
+        want = solve(g1_arm, t, "auto", q0=q0)
+        np.testing.assert_array_equal(got.q, want.q)
+        assert (got.status, got.iterations, got.solver) == (
+            want.status,
+            want.iterations,
+            want.solver,
+        )
+        assert got.position_error == want.position_error
+        assert got.converged and got.position_error < 1e-4
+
+
+def test_positions_as_an_array_and_options(g1_arm):
+    """Positions ``(N, 3)`` with orientations ``(N, 4)``, and a solver option, as in
+    ``solve``; with no ``q0`` every solve starts from the chain's current joints."""
+    targets = _poses(g1_arm, 5, seed=7)
+    p = np.array([t.position for t in targets])
+    qt = np.array([t.quat for t in targets])
+    g1_arm.set_q(g1_arm.q_home)
+    start = g1_arm.q
+    batch = solve_batch(g1_arm, p, "lm", quats=qt, max_iterations=50)
+    for t, got in zip(targets, batch, strict=True):
+        want = solve(g1_arm, t, "lm", q0=start, max_iterations=50)
+        np.testing.assert_array_equal(got.q, want.q)
+    only_positions = solve_batch(g1_arm, p, "dls", q0=start)
+    assert all(r.orientation_error is None and r.converged for r in only_positions)
+    assert solve_batch(g1_arm, [], "auto") == []
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        (
+            {"workers": -1},
+            SolverError,
+            r"workers must be an integer >= 0 \(0: one per core\), got -1",
+        ),
+        ({"workers": 1.5}, SolverError, "workers must be an integer >= 0"),
+        (
+            {"targets": np.zeros((3, 2))},
+            TargetError,
+            r"positions \(N, 3\) \[m\], got shape \(3, 2\)",
+        ),
+        ({"quats": np.zeros((2, 4))}, TargetError, r"quats must be \(3, 4\) wxyz"),
+        ({"solver": "nope"}, SolverError, "solver 'nope' unknown; solvers: auto"),
+    ],
+)
+def test_bad_input_is_one_clear_error(g1_arm, kwargs, error, message):
+    """Bad workers, shapes and solver names raise the package's error naming the value."""
+    args = {"targets": np.full((3, 3), 0.3), "solver": "auto", **kwargs}
+    targets, solver = args.pop("targets"), args.pop("solver")
+    with pytest.raises(error, match=message):
+        solve_batch(g1_arm, targets, solver, **args)
