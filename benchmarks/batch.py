@@ -20,19 +20,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from humanoid_ik import Chain, Target, load_model, solve_batch  # noqa: E402
-from humanoid_ik.core.rotations import mat_to_quat  # noqa: E402
+from humanoid_ik import Chain, load_model, solve_batch  # noqa: E402
 from humanoid_ik.solvers.analytic.closed_form import solve_batch as closed_form_batch  # noqa: E402
+from tests.chains import fk_poses  # noqa: E402
 from tests.robots import robot_file  # noqa: E402
-
-
-def poses(chain: Chain, n: int, seed: int) -> list[Target]:
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(n):
-        p, R = chain.fk(rng.uniform(chain.lower, chain.upper))
-        out.append(Target(p, mat_to_quat(R)))
-    return out
 
 
 def arms() -> dict[str, Chain]:
@@ -52,7 +43,7 @@ def main() -> None:
     print("| arm | solver | processes | solved | targets/s wall | CPU s (caller) |")
     print("|---|---|---|---|---|---|")
     for name, chain in arms().items():
-        targets = poses(chain, args.targets, args.seed)
+        targets = fk_poses(chain, args.targets, args.seed)
         for workers in (1, 2):
             t0, c0 = time.perf_counter(), time.process_time()
             res = solve_batch(chain, targets, "auto", q0=chain.q_home, workers=workers)
@@ -60,7 +51,7 @@ def main() -> None:
             ok = sum(r.converged for r in res) / len(res)
             print(f"| {name} | auto | {workers} | {ok:.1%} | {len(res) / wall:,.0f} | {cpu:.2f} |")
     bundled = Chain()
-    targets = poses(bundled, args.targets, args.seed)
+    targets = fk_poses(bundled, args.targets, args.seed)
     p = np.array([t.position for t in targets])
     qt = np.array([t.quat for t in targets])
     t0, c0 = time.perf_counter(), time.process_time()

@@ -7,8 +7,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
-from humanoid_ik import Chain
+from humanoid_ik import Chain, Target
+from humanoid_ik.core.rotations import mat_to_quat
 
 MODELS = Path(__file__).resolve().parent / "models"
 """Fixture arms unlike the humanoid's (see ``tests/models/README.md``)."""
@@ -143,3 +145,14 @@ def fixture(name: str, riding: bool = True) -> Chain:
     a joint off the chain, held at home)."""
     site, joints = FIXTURES[name]
     return Chain(MODELS / f"{name}.xml", site, joints if riding else joints[:-1])
+
+
+def fk_poses(chain: Chain, n: int, seed: int) -> list[Target]:
+    """``n`` reachable pose targets: the FK of seeded random in-range joint vectors
+    (:meth:`Chain.random_q`); the chain's joints are left at the last of them."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        p, R = chain.fk(chain.random_q(rng))
+        out.append(Target(p, mat_to_quat(R)))
+    return out

@@ -7,20 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from humanoid_ik import Chain, Target, TargetError, load_model, solve, solve_batch
-from humanoid_ik.core.rotations import mat_to_quat
+from humanoid_ik import Chain, TargetError, load_model, solve, solve_batch
 from humanoid_ik.errors import SolverError
+from tests.chains import fk_poses
 from tests.robots import robot_file
-
-
-def _poses(chain: Chain, n: int, seed: int) -> list[Target]:
-    """FK poses of seeded random in-range joints."""
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(n):
-        p, R = chain.fk(rng.uniform(chain.lower, chain.upper))
-        out.append(Target(p, mat_to_quat(R)))
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +29,7 @@ def g1_arm() -> Chain:
 def test_batch_answers_are_the_single_calls(g1_arm, workers):
     """40 pose targets: each result equals ``solve``'s from the same start (joints, status,
     iterations, errors), on 1 and on 2 processes, and every pose is met."""
-    targets = _poses(g1_arm, 40, seed=workers)
+    targets = fk_poses(g1_arm, 40, seed=workers)
     q0 = g1_arm.q_home
     batch = solve_batch(g1_arm, targets, "auto", q0=q0, workers=workers)
     assert len(batch) == 40
@@ -58,7 +48,7 @@ def test_batch_answers_are_the_single_calls(g1_arm, workers):
 def test_positions_as_an_array_and_options(g1_arm):
     """Positions ``(N, 3)`` with orientations ``(N, 4)``, and a solver option, as in
     ``solve``; with no ``q0`` every solve starts from the chain's current joints."""
-    targets = _poses(g1_arm, 5, seed=7)
+    targets = fk_poses(g1_arm, 5, seed=7)
     p = np.array([t.position for t in targets])
     qt = np.array([t.quat for t in targets])
     g1_arm.set_q(g1_arm.q_home)
