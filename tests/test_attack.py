@@ -93,6 +93,44 @@ SWEEP_EDITS = {
 """Sweep files that break a bound: name -> (text of :data:`SWEEP`, replaced by)."""
 
 SOLVE = ["solve", "--target", "0.3,-0.3,1.1"]
+SMALL = ["--frames", "2", "--width", "64", "--height", "48"]
+
+USERS_FILES = {
+    "mine_mp4": "circle.mp4",
+    "mine_png": "frame_0000.png",
+    "mine_csv": "trajectory.csv",
+    "mine_summary": "summary.csv",
+}
+"""Folders of the user's own files (no run of the tool wrote them): folder -> file."""
+
+ARM = """
+<mujoco>
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="upper">
+      <joint name="shoulder" type="hinge" axis="0 0 1"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      <body name="fore" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 0 1" RANGE/>
+        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03"/>
+        <site name="tip" pos="0.25 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+"""A planar arm of two hinges whose elbow's range attributes are ``RANGE``."""
+
+MODELS = {
+    "inverted": ARM.replace("RANGE", 'range="0.5 -0.5"'),
+    "locked": ARM.replace("RANGE", 'range="0.5 0.5"'),
+    "unlimited": ARM.replace("RANGE", 'range="0.5 0.5" limited="false"'),
+    "continuous": ARM.replace("RANGE", ""),
+    "nan-colour": ARM.replace("RANGE", "").replace(
+        'size="0.03"/>', 'size="0.03" rgba="nan 1 1 1"/>', 1
+    ),
+}
+"""Model files, ``{model:NAME}`` in :data:`CASES`."""
 
 CASES = [
     # --- item 7: tracebacks and hangs that are one line now
@@ -184,18 +222,69 @@ CASES = [
     # --- issue 24, item 16: a sweep is a file or a bundled sweep's name (listed when unknown)
     ("sweep-name", ["sweep", "no_such_sweep", "--out", "{tmp}/o"], 2,
      "no_such_sweep: no such sweep file; expected a path or a bundled sweep: compare_solvers"),
+    # --- issue 24, item 5: an output onto a FIFO is refused (a device by the same rule)
+    ("fifo-keyframes", ["export-keyframes", "{trajectory}", "--out", "{tmp}/fifo"], 2,
+     "not a regular file (a device, FIFO or socket); give a file path: {tmp}/fifo"),
+    ("fifo-bvh", ["export-bvh", "{trajectory}", "--out", "{tmp}/fifo"], 2,
+     "not a regular file (a device, FIFO or socket); give a file path: {tmp}/fifo"),
+    ("fifo-bench", ["bench", "--n", "2", "--solvers", "dls", "--json", "{tmp}/fifo"], 2,
+     "not a regular file (a device, FIFO or socket); give a file path: {tmp}/fifo"),
+    # --- issue 24, item 13: an MJCF range MuJoCo drops: inverted is refused (locked: below)
+    ("mjcf-inverted", ["inspect", "--model", "{model:inverted}"], 2,
+     "model '{model:inverted}': joint 'elbow' has range 0.5 -0.5 (lower > upper, which "
+     "MuJoCo would take as unlimited); swap them"),
+    ("mjcf-inverted-solve",
+     ["solve", "--model", "{model:inverted}", "--site", "tip", "--target", "0.3,0.2,0"], 2,
+     "joint 'elbow' has range 0.5 -0.5 (lower > upper"),
 ]  # fmt: skip
 """(id, command arguments, exit status, message fragment): the bad-input table."""
 
 
+USER_CASES = [
+    ("users-mp4", ["render", "circle", *SMALL, "--out", "{tmp}/mine_mp4"], 2,
+     "not written over a file that no earlier run wrote here (remove it or choose another "
+     "output folder): {tmp}/mine_mp4/circle.mp4"),
+    ("users-png", ["render", "circle", *SMALL, "--no-video", "--out", "{tmp}/mine_png"], 2,
+     "no earlier run wrote here (remove it or choose another output folder): "
+     "{tmp}/mine_png/frame_0000.png"),
+    ("users-csv", ["run", "circle", "--frames", "2", "--out", "{tmp}/mine_csv"], 2,
+     "no earlier run wrote here (remove it or choose another output folder): "
+     "{tmp}/mine_csv/trajectory.csv"),
+    ("users-replay",
+     ["replay", "{trajectory}", *SMALL[2:], "--no-video", "--out", "{tmp}/mine_png"],
+     2, "no earlier run wrote here (remove it or choose another output folder): "
+     "{tmp}/mine_png/frame_0000.png"),
+    ("users-sweep", ["sweep", "{sweep}", "--out", "{tmp}/mine_summary", "--no-plot"], 2,
+     "not written over a file that no earlier sweep wrote here (remove it or choose another "
+     "output folder): {tmp}/mine_summary/summary.csv"),
+]  # fmt: skip
+"""Issue 24, item 3: (id, command arguments, exit status, message fragment) of commands
+writing into a folder of the user's own files (:data:`USERS_FILES`)."""
+
+
+@pytest.fixture(scope="module")
+def trajectory(tmp_path_factory) -> Path:
+    """The trajectory.npz of a run of ``circle`` of 3 frames."""
+    out = tmp_path_factory.mktemp("run") / "run"
+    assert main(["run", "circle", "--frames", "3", "--out", str(out)]) == 0
+    return out / "trajectory.npz"
+
+
 @pytest.fixture()
-def files(tmp_path: Path) -> dict[str, str]:
+def files(tmp_path: Path, trajectory: Path) -> dict[str, str]:
     """The placeholders of :data:`CASES`, as the files they name."""
     (tmp_path / "folder").mkdir()
     (tmp_path / "folder.npz").mkdir()
+    os.mkfifo(tmp_path / "fifo")
+    for folder, name in USERS_FILES.items():
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / name).write_text("the user's own\n")
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(SWEEP)
-    out = {"{tmp}": str(tmp_path), "{sweep}": str(sweep)}
+    out = {"{tmp}": str(tmp_path), "{sweep}": str(sweep), "{trajectory}": str(trajectory)}
+    for name, text in MODELS.items():
+        (tmp_path / f"{name}.xml").write_text(text)
+        out[f"{{model:{name}}}"] = str(tmp_path / f"{name}.xml")
     circle = (bundled_dir("scenes") / "circle.toml").read_text()
     for name, (old, new) in SCENE_EDITS.items():
         assert old in circle, name
@@ -235,6 +324,26 @@ def test_bad_input_is_one_line(capsys, files, tmp_path, args, status, fragment):
     assert _fill(fragment, files) in err, err
     assert "Traceback" not in err and out == ""
     assert _listing(tmp_path) == before
+    for folder, name in USERS_FILES.items():  # the user's files as they were
+        assert (tmp_path / folder / name).read_text() == "the user's own\n"
+    assert (tmp_path / "fifo").is_fifo()
+
+
+@pytest.mark.parametrize(
+    ("args", "status", "fragment"), [c[1:] for c in USER_CASES], ids=[c[0] for c in USER_CASES]
+)
+def test_no_command_replaces_the_users_files(capsys, files, tmp_path, args, status, fragment):
+    """Each command writing a folder, given one holding a file of the user's that it would
+    write: refused in one line naming that file, exit 2; the file as it was and nothing
+    else in the folder but the folder's lock (hidden, the tool's own)."""
+    code = main([_fill(a, files) for a in args])
+    out, err = capsys.readouterr()
+    assert code == status, err
+    assert err.count("\n") == 1 and err.startswith("humanoid-ik: error: "), err
+    assert _fill(fragment, files) in err and "Traceback" not in err, err
+    for folder, name in USERS_FILES.items():
+        assert (tmp_path / folder / name).read_text() == "the user's own\n"
+        assert set(_listing(tmp_path / folder)) <= {name, ".humanoid-ik-outputs.lock"}
 
 
 def test_bench_json_folder_is_refused_before_the_run(capsys, tmp_path):
@@ -428,3 +537,245 @@ def test_sweep_help_names_a_bundled_sweep(capsys):
     assert main(["sweep", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "SWEEP.toml|NAME" in text and "a sweep file, or a bundled sweep's name" in text
+
+
+# ----------------------------------------------------------------------------- issue 24, item 13
+def test_an_mjcf_range_of_zero_width_locks_the_joint(tmp_path):
+    """``range="0.5 0.5"`` (which MuJoCo takes as unlimited) locks the elbow at 0.5, with
+    one note, and a solve keeps it there; with ``limited="false"`` written it stays free."""
+    import warnings
+
+    from humanoid_ik import solve
+    from humanoid_ik.core.models import ModelWarning, load_model
+
+    path = tmp_path / "locked.xml"
+    path.write_text(MODELS["locked"])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        chain = Chain(load_model(path), site="tip")
+    said = [str(w.message) for w in caught if issubclass(w.category, ModelWarning)]
+    assert (
+        f"model '{path}': 1 joint(s) locked (range lower = upper, which MuJoCo would take "
+        "as unlimited; give a range to let them move): 'elbow' at 0.5" in said
+    ), said
+    assert chain.lower[1] == pytest.approx(0.5, abs=1e-8) and chain.upper[1] == pytest.approx(0.5)
+    target = chain.fk([0.7, 0.5])[0]
+    result = solve(chain, target, solver="dls")
+    assert result.q[1] == pytest.approx(0.5, abs=1e-8)
+    assert np.linalg.norm(chain.fk(result.q)[0] - target) < 1e-4
+    free = tmp_path / "free.xml"
+    free.write_text(MODELS["unlimited"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ModelWarning)
+        assert np.isinf(Chain(load_model(free), site="tip").upper[1])
+
+
+# ----------------------------------------------------------------------------- issue 24, item 15
+def test_mujocos_warning_in_library_use_is_a_python_warning_and_writes_no_log(
+    tmp_path, monkeypatch, capsys
+):
+    """A model MuJoCo warns about (a NaN colour: ``XML contains a 'NaN'``) loaded from
+    Python, in a folder of the user's: no ``MUJOCO_LOG.TXT`` there and nothing printed,
+    one :class:`MuJoCoWarning` instead, the user's own MuJoCo callback back after (and
+    not called); a warning filter of ``error`` raises it (MuJoCo's C code would abort on
+    a Python exception); the command line prints it as one note."""
+    import mujoco
+
+    from humanoid_ik.core.models import load_model, model_spec
+    from humanoid_ik.core.mujoco_warnings import MuJoCoWarning
+
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "nan-colour.xml"
+    path.write_text(MODELS["nan-colour"])
+    theirs: list[str] = []
+
+    def callback(message: str) -> None:
+        theirs.append(message)
+
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(callback)
+    try:
+        said = "MuJoCo: XML contains a 'NaN'. Please check it carefully."
+        for load in (
+            lambda: load_model(path),
+            lambda: model_spec(path),
+            lambda: Chain.from_xml_string(MODELS["nan-colour"], site="tip"),
+        ):
+            with pytest.warns(MuJoCoWarning) as caught:
+                load()
+            assert [str(w.message) for w in caught if w.category is MuJoCoWarning] == [said]
+            assert mujoco.get_mju_user_warning() is callback
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", MuJoCoWarning)
+            with pytest.raises(MuJoCoWarning, match="XML contains a 'NaN'"):
+                load_model(path)
+        assert mujoco.get_mju_user_warning() is callback
+        assert theirs == []
+        mujoco.MjModel.from_xml_string(MODELS["nan-colour"])  # not the package's call
+        assert theirs == ["XML contains a 'NaN'. Please check it carefully."]
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    assert capsys.readouterr() == ("", "")
+    assert main(["solve", "--model", str(path), "--site", "tip", "--target", "0.3,0.2,0"]) == 0
+    out, err = capsys.readouterr()
+    assert "converged" in out and err == f"humanoid-ik: note: {said}\n", err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["nan-colour.xml"]
+
+
+# ----------------------------------------------------------------------------- issue 24, item 11
+def _strict_json(text: str):
+    def refuse(name: str):
+        raise ValueError(f"not JSON: {name}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_a_runs_files_are_strict_json_and_xml_with_a_continuous_joint(tmp_path, capsys):
+    """A run on an arm whose joints are both continuous (its range margin is infinite):
+    ``metrics.json``, the folder's manifest and the trajectory's header parse with a
+    strict JSON parser (the margin ``null``), and ``export-keyframes`` gives XML that a
+    strict parser reads, with one key per frame."""
+    import xml.etree.ElementTree as ET
+
+    from humanoid_ik.outputs.atomic import MANIFEST
+
+    (tmp_path / "arm.xml").write_text(MODELS["continuous"])
+    scene = tmp_path / "arm.toml"
+    scene.write_text(
+        'name = "arm--two"\nmodel = "arm.xml"\nduration = 1.0\nfps = 4\n[solver]\nname = "dls"\n'
+        '[[targets]]\nname = "p"\nmotion = { kind = "points", points = [[0.3, 0.2, 0.0], '
+        "[0.2, 0.3, 0.0]], hold = 0.5, travel = 0.0 }\n"
+        '[[effectors]]\nsite = "tip"\ntarget = "p"\n'
+    )
+    out = tmp_path / "run"
+    assert main(["run", str(scene), "--out", str(out)]) == 0
+    metrics = _strict_json((out / "metrics.json").read_text())
+    assert metrics["frames"] == 4 and len(metrics["samples"]) == 4
+    assert [s["limit_margin_rad"] for s in metrics["samples"]] == [None] * 4
+    assert sorted(_strict_json((out / MANIFEST).read_text())["files"]) == [
+        "metrics.csv", "metrics.json", "trajectory.csv", "trajectory.npz"
+    ]  # fmt: skip
+    with np.load(out / "trajectory.npz") as z:
+        assert _strict_json(str(z["header"]))["scene"] == "arm--two"
+    keys = tmp_path / "keys.xml"
+    assert main(["export-keyframes", str(out / "trajectory.npz"), "--out", str(keys)]) == 0
+    capsys.readouterr()
+    root = ET.fromstring(keys.read_text())
+    assert [len(k.get("qpos").split()) for k in root.iter("key")] == [2] * 4
+
+
+# ----------------------------------------------------------------------------- issue 24, item 4
+def test_a_trajectory_of_no_frames_leaves_the_previous_replay(trajectory, tmp_path, capsys):
+    """A 0-frame trajectory replayed into the folder of an earlier replay: refused in one
+    line, exit 2, the earlier replay's set as it was (not replaced by a lone manifest)."""
+    out = tmp_path / "replay"
+    small = ["--width", "64", "--height", "48"]
+    assert main(["replay", str(trajectory), *small, "--out", str(out)]) == 0
+    capsys.readouterr()
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert "frame_0002.png" in before
+    with np.load(trajectory) as z:
+        arrays = {k: z[k] for k in z.files}
+    header = json.loads(str(arrays.pop("header")))
+    empty = {k: v[:0] if v.ndim and k != "stage_points" else v for k, v in arrays.items()}
+    header["frames"] = 0
+    np.savez(tmp_path / "empty.npz", header=np.array(json.dumps(header)), **empty)
+    assert main(["replay", str(tmp_path / "empty.npz"), *small, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "frames: expected an integer >= 1 and <= 100000, got 0" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+# ----------------------------------------------------------------------------- issue 24, item 9
+def _frames(traj, n: int):
+    """``traj`` stretched to ``n`` frames: each per-frame array repeated, times ascending."""
+    from dataclasses import fields, replace
+
+    def grow(value):
+        if isinstance(value, np.ndarray) and value.ndim and len(value) == traj.n_frames:
+            return np.resize(value, (n, *value.shape[1:]))
+        if isinstance(value, tuple) and len(value) == traj.n_frames:
+            return tuple(value[i % len(value)] for i in range(n))
+        return value
+
+    effectors = tuple(
+        replace(e, **{f.name: grow(getattr(e, f.name)) for f in fields(e)}) for e in traj.effectors
+    )
+    return replace(traj, time=np.arange(n) / traj.fps, qpos=grow(traj.qpos), effectors=effectors)
+
+
+def _bytes_read() -> int:
+    """Bytes this process has read so far (``rchar`` of ``/proc/self/io``)."""
+    for line in Path("/proc/self/io").read_text().splitlines():
+        if line.startswith("rchar:"):
+            return int(line.split()[1])
+    raise AssertionError("no rchar in /proc/self/io")
+
+
+def test_the_trajectory_readers_bound(trajectory, tmp_path):
+    """The bound of ``docs/formats.md``: a file of MAX_FRAMES frames (npz and CSV) reads
+    whole, holding less than MAX_TRAJECTORY_BYTES; one frame more is refused from the
+    header. A CSV whose rows go on past its header's ``frames`` (a 1 GiB tail here) is
+    refused at the first row too many: the reader reads a few kB of it, not the tail."""
+    import tracemalloc
+
+    from humanoid_ik.config.specs import MAX_FRAMES
+    from humanoid_ik.errors import TrajectoryFileError
+    from humanoid_ik.outputs.trajectory import load_trajectory, write_trajectory
+    from humanoid_ik.outputs.trajectory_layout import MAX_TRAJECTORY_BYTES
+
+    if not Path("/proc/self/io").is_file():
+        pytest.skip("needs /proc/self/io (Linux)")
+    good = load_trajectory(trajectory)
+    big = _frames(good, MAX_FRAMES)
+    (tmp_path / "big").mkdir()
+    npz, csv_path = write_trajectory(big, tmp_path / "big")
+    for path in (npz, csv_path):
+        tracemalloc.start()
+        try:
+            back = load_trajectory(path)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert back.n_frames == MAX_FRAMES and peak < MAX_TRAJECTORY_BYTES, (path, peak)
+        np.testing.assert_array_equal(back.qpos[-1], big.qpos[-1])
+    with np.load(npz) as z:
+        arrays = {k: z[k] for k in z.files}
+    header = json.loads(str(arrays.pop("header")))
+    np.savez(
+        tmp_path / "over.npz",
+        header=np.array(json.dumps({**header, "frames": MAX_FRAMES + 1})),
+        **arrays,
+    )
+    with pytest.raises(
+        TrajectoryFileError, match="frames: expected an integer >= 1 and <= 100000, got 100001"
+    ):
+        load_trajectory(tmp_path / "over.npz")
+    lines = (trajectory.parent / "trajectory.csv").read_text().splitlines()
+    endless = tmp_path / "endless.csv"
+    endless.write_text("\n".join([*lines, lines[-1]]) + "\n")
+    with open(endless, "r+b") as fh:
+        fh.truncate(2**30)  # a sparse tail of 1 GiB (NUL bytes)
+    before = _bytes_read()
+    with pytest.raises(
+        TrajectoryFileError, match="has more than 3 rows; its header says frames = 3"
+    ):
+        load_trajectory(endless)
+    assert _bytes_read() - before < 2**20
+
+
+def test_a_sweeps_files_are_strict_json(tmp_path, capsys):
+    """A sweep's summary, run record and job records parse with a strict JSON parser,
+    a job that failed to converge included (its errors are numbers or ``null``)."""
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(SWEEP.replace('solvers = ["closed_form"]', 'solvers = ["closed_form", "ccd"]'))
+    out = tmp_path / "o"
+    assert main(["sweep", str(sweep), "--out", str(out), "--workers", "1", "--no-plot"]) == 0
+    capsys.readouterr()
+    records = sorted((out / "jobs").glob("*.json"))
+    assert len(records) == 2
+    for path in [out / "summary.json", out / "run.json", *records]:
+        _strict_json(path.read_text())
+    assert _strict_json((out / "run.json").read_text())["executed"] == 2

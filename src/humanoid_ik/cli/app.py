@@ -162,27 +162,19 @@ def _interrupts_delivered_again() -> Any:
     return hook
 
 
-def _mujoco_note(message: str) -> None:
-    """MuJoCo's own warnings (``XML contains a 'NaN'``), which it would print on stdout
-    and append to a ``MUJOCO_LOG.TXT`` in the current folder: one note line on stderr."""
-    print(f"humanoid-ik: note: MuJoCo: {message.strip()}", file=sys.stderr)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
-    import mujoco
+    from humanoid_ik.core.mujoco_warnings import mujoco_warnings
 
-    unraisable, mujoco_warning = sys.unraisablehook, mujoco.get_mju_user_warning()
+    unraisable = sys.unraisablehook
     sys.unraisablehook = _interrupts_delivered_again()
-    mujoco.set_mju_user_warning(_mujoco_note)
-    try:
-        with warnings.catch_warnings():
+    try:  # MuJoCo's warnings (it would print them and write a MUJOCO_LOG.TXT): notes
+        with warnings.catch_warnings(), mujoco_warnings():
             warnings.showwarning = _show_notes()
             warnings.simplefilter("default", ModelWarning)  # each note once
             return _main(argv)
     finally:
         sys.unraisablehook = unraisable
-        mujoco.set_mju_user_warning(mujoco_warning)
 
 
 def _main(argv: Sequence[str] | None) -> int:

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.checks import float_array
 from humanoid_ik.core.models import home_qpos
+from humanoid_ik.core.mujoco_warnings import mujoco_warnings
 from humanoid_ik.core.robot import Robot, joint_name, names
 from humanoid_ik.errors import (
     ChainError,
@@ -274,17 +275,16 @@ class Chain:
             site, joints, body: as for :class:`Chain`.
 
         Raises:
-            ModelError: ``xml`` is not a string, or MuJoCo cannot compile it (MuJoCo's
-                message is kept).
+            ModelError: ``xml`` is not a string, or MuJoCo cannot compile it (its message kept).
             NameNotFoundError, UnsupportedJointError, ChainError: as :class:`Chain`.
         """
         if not isinstance(xml, str):
             raise ModelError(f"MJCF must be a string of XML, got {type(xml).__name__}")
         try:
-            model = mujoco.MjModel.from_xml_string(xml)
+            with mujoco_warnings():  # MuJoCo's warnings: Python's, no MUJOCO_LOG.TXT
+                model = mujoco.MjModel.from_xml_string(xml)
         except ValueError as exc:
-            msg = " ".join(str(exc).split())
-            raise ModelError(f"MJCF string does not compile: {msg}") from exc
+            raise ModelError(f"MJCF string does not compile: {' '.join(str(exc).split())}") from exc
         return cls(model, site, joints, body=body)
 
     def derived(self, key: Hashable, build: Callable[[Chain], T]) -> T:

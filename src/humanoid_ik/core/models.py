@@ -20,6 +20,8 @@ from numpy.typing import NDArray
 
 from humanoid_ik.core.meshes import convert_meshes
 from humanoid_ik.core.model_cache import compile_cached
+from humanoid_ik.core.model_checks import LOCKED_HALF_WIDTH, check_finite, check_ranges
+from humanoid_ik.core.mujoco_warnings import mujoco_warnings
 from humanoid_ik.core.names import joint_name
 from humanoid_ik.core.robot_files import (
     ModelWarning,
@@ -159,53 +161,16 @@ def load_model(
         compiled = compile_spec(model_spec(path, packages=packages), path)
     else:
         try:
-            compiled = mujoco.MjModel.from_xml_path(str(path))
+            with mujoco_warnings():
+                compiled = mujoco.MjModel.from_xml_path(str(path))
         except ValueError as exc:
             raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
+        check_ranges(compiled, path)
     check_finite(compiled, f"model '{path}'")
     home = home_warning(compiled)
     if home is not None:  # stacklevel 1: one place, so Python says each model once
         warnings.warn(f"model '{path}': {home}", HomeWarning, 1)
     return compiled
-
-
-_FINITE = (
-    ("body_pos", mujoco.mjtObj.mjOBJ_BODY, "body", "pos"),
-    ("body_quat", mujoco.mjtObj.mjOBJ_BODY, "body", "quat"),
-    ("body_ipos", mujoco.mjtObj.mjOBJ_BODY, "body", "inertial pos"),
-    ("jnt_pos", mujoco.mjtObj.mjOBJ_JOINT, "joint", "pos"),
-    ("jnt_axis", mujoco.mjtObj.mjOBJ_JOINT, "joint", "axis"),
-    ("jnt_range", mujoco.mjtObj.mjOBJ_JOINT, "joint", "range"),
-    ("geom_pos", mujoco.mjtObj.mjOBJ_GEOM, "geom", "pos"),
-    ("geom_size", mujoco.mjtObj.mjOBJ_GEOM, "geom", "size"),
-    ("site_pos", mujoco.mjtObj.mjOBJ_SITE, "site", "pos"),
-    ("site_quat", mujoco.mjtObj.mjOBJ_SITE, "site", "quat"),
-    ("qpos0", None, "qpos0", ""),
-    ("key_qpos", mujoco.mjtObj.mjOBJ_KEY, "keyframe", "qpos"),
-)
-"""The model arrays whose numbers must be finite: (array, object type, element, field)."""
-
-
-def check_finite(model: mujoco.MjModel, what: str) -> None:
-    """Refuse a model with a NaN or an infinity in its geometry, axes, ranges or home
-    pose (``pos="nan 0 0"`` compiles, and every solver then reports NaN errors).
-
-    Raises:
-        ModelError: one line naming the element, the field and its values.
-    """
-    for attr, objtype, element, field in _FINITE:
-        values = np.asarray(getattr(model, attr))
-        if values.size == 0 or np.isfinite(values).all():
-            continue
-        rows = values.reshape(len(values), -1)
-        row = int(np.nonzero((~np.isfinite(rows)).any(axis=1))[0][0])
-        shown = " ".join(f"{v:g}" for v in rows[row])
-        if objtype is None:
-            where = f"qpos0 [{row}]"
-        else:
-            name = mujoco.mj_id2name(model, objtype, row) or f"#{row}"
-            where = f"{element} '{name}' {field}"
-        raise ModelError(f"{what}: {where} is not finite ({shown}); every number must be")
 
 
 class HomeWarning(ModelWarning):
@@ -239,11 +204,6 @@ def model_file(model: str | os.PathLike | None) -> Path:
     if not path.is_file():
         raise ModelError(f"model file '{path}' does not exist{bundled_override('models', path)}")
     return path
-
-
-LOCKED_HALF_WIDTH = 1e-9
-"""Half the range [rad or m] a URDF joint with ``lower == upper`` keeps: it stays where
-the URDF locks it (MuJoCo would drop the limit and let it move freely)."""
 
 
 def _urdf_joint_rules(spec: mujoco.MjSpec, text: str, path: Path) -> None:
@@ -334,13 +294,15 @@ def model_spec(
     path = model_file(model)
     if not is_robot_file(path):
         try:
-            return mujoco.MjSpec.from_file(str(path))
+            with mujoco_warnings():
+                return mujoco.MjSpec.from_file(str(path))
         except ValueError as exc:
             raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
     index = PackageIndex(path, packages)
     text = robot_text(path, index)
     try:
-        spec = mujoco.MjSpec.from_string(text)
+        with mujoco_warnings():
+            spec = mujoco.MjSpec.from_string(text)
     except ValueError as exc:
         raise ModelError(f"model '{path}' does not compile: {_one_line(exc)}") from exc
     _urdf_joint_rules(spec, text, path)
@@ -487,7 +449,8 @@ def compile_spec(spec: mujoco.MjSpec, path: Path) -> mujoco.MjModel:
     """
     while True:
         try:
-            return compile_cached(spec, path)
+            with mujoco_warnings():
+                return compile_cached(spec, path)
         except ValueError as exc:
             msg = _one_line(exc)
             found = _ELEMENT.search(msg)

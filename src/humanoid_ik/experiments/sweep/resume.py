@@ -35,6 +35,8 @@ _RESULTS = "jobs"
 """The folder under ``out`` of the job records."""
 WORKER_LOG = "workers.log"
 """The file under ``out`` that receives what the local pool's processes print."""
+SWEEP_FILES = ("summary.csv", "summary.json", "summary.png", "run.json", WORKER_LOG)
+"""The files a sweep writes in ``out`` beside ``jobs/``: never over a user's own."""
 
 
 @dataclass(frozen=True)
@@ -141,8 +143,9 @@ def damaged_records(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[Path, s
 
 def check_out(out: str | os.PathLike) -> None:
     """Fail unless a sweep can write ``out``: the nearest of ``out`` and the folders above
-    it that exists is a writable folder, and so is ``out/jobs`` if it exists. Checked
-    before a sweep announces or runs anything; nothing is created.
+    it that exists is a writable folder, and so is ``out/jobs`` if it exists; a folder no
+    sweep ran in (no ``jobs/``) holds none of :data:`SWEEP_FILES`. Checked before a sweep
+    announces or runs anything; nothing is created.
 
     Raises:
         SweepError: naming ``out`` and the folder that cannot be written.
@@ -158,6 +161,12 @@ def check_out(out: str | os.PathLike) -> None:
     for folder in (base, out / _RESULTS):
         if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
             raise SweepError(None, "", f"cannot write '{out}': {what(folder)} is not writable")
+    if not (out / _RESULTS).is_dir():  # no sweep ran here: a file of its names is the user's
+        for theirs in (out / name for name in SWEEP_FILES):
+            if os.path.lexists(theirs):
+                why = "not written over a file that no earlier sweep wrote here"
+                advice = "remove it or choose another output folder"
+                raise SweepError(None, "", f"{why} ({advice}): {theirs}")
 
 
 def _make_out(out: Path) -> None:
