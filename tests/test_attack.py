@@ -344,6 +344,12 @@ def test_no_command_replaces_the_users_files(capsys, files, tmp_path, args, stat
     for folder, name in USERS_FILES.items():
         assert (tmp_path / folder / name).read_text() == "the user's own\n"
         assert set(_listing(tmp_path / folder)) <= {name, ".humanoid-ik-outputs.lock"}
+    if any(f"/{name}" in err for name in ("circle.mp4", "trajectory.csv")):
+        # a name the run knows beforehand: refused before it ran (no lock, no frame solved)
+        assert out == "", out
+        assert all(
+            _listing(tmp_path / f) == [n] for f, n in USERS_FILES.items() if f != "mine_summary"
+        )
 
 
 def test_bench_json_folder_is_refused_before_the_run(capsys, tmp_path):

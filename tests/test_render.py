@@ -344,9 +344,12 @@ def test_failed_render_leaves_no_video(tmp_path, monkeypatch):
     from humanoid_ik.errors import SolverError
     from humanoid_ik.run.runner import SceneRunner
 
+    from humanoid_ik.outputs.atomic import MANIFEST, write_json
+
     folder = tmp_path / "c"
     folder.mkdir()
     (folder / "circle.mp4").write_bytes(b"earlier video")
+    write_json(folder / MANIFEST, {"files": ["circle.mp4"]})  # an earlier run's
     step = SceneRunner.step
 
     def failing(self, index):

@@ -31,7 +31,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -40,6 +40,7 @@ __all__ = [
     "MANIFEST",
     "atomic_dir",
     "atomic_path",
+    "check_not_theirs",
     "json_text",
     "output_file",
     "pid_alive",
@@ -264,6 +265,26 @@ def signals_held() -> Iterator[None]:
             raise late
 
 
+def check_not_theirs(folder: str | os.PathLike, names: Iterable[str]) -> None:
+    """Refuse to write ``names`` into ``folder`` where one of them is there but no earlier
+    run published it (the user's own file). :func:`publish` checks the whole set; a run
+    checks the names it knows beforehand too, so that it fails before its work.
+
+    Raises:
+        FileExistsError: naming the first such file.
+    """
+    dst = Path(folder)
+    ours = set(published(dst))
+    for name in names:
+        if name not in ours and os.path.lexists(dst / name):
+            raise FileExistsError(
+                errno.EEXIST,
+                "not written over a file that no earlier run wrote here (remove it or "
+                "choose another output folder)",
+                str(dst / name),
+            )
+
+
 def publish(staging: str | os.PathLike, folder: str | os.PathLike) -> list[Path]:
     """Move every file of ``staging`` into ``folder``, in place of the files the previous
     run published there, and record them in the folder's :data:`MANIFEST`; returns the
@@ -278,14 +299,7 @@ def publish(staging: str | os.PathLike, folder: str | os.PathLike) -> list[Path]
     names = sorted(p.name for p in src.iterdir() if p.is_file() and not p.name.startswith("."))
     with signals_held(), _folder_lock(dst / _LOCK):
         ours = set(published(dst))
-        theirs = [n for n in names if n not in ours and os.path.lexists(dst / n)]
-        if theirs:
-            raise FileExistsError(
-                errno.EEXIST,
-                "not written over a file that no earlier run wrote here (remove it or "
-                "choose another output folder)",
-                str(dst / theirs[0]),
-            )
+        check_not_theirs(dst, names)
         for old in ours - set(names):
             (dst / old).unlink(missing_ok=True)
         for name in names:

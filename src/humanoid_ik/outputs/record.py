@@ -15,7 +15,7 @@ from typing import TypeVar
 from humanoid_ik.config.specs import Scene
 from humanoid_ik.core.names import check_name
 from humanoid_ik.errors import MotionError, RenderError, SceneError, show_value
-from humanoid_ik.outputs.atomic import staged_outputs, write_json, write_text
+from humanoid_ik.outputs.atomic import check_not_theirs, staged_outputs, write_json, write_text
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.metrics import FrameRecord
 from humanoid_ik.run.recording import Recording
@@ -23,6 +23,7 @@ from humanoid_ik.run.runner import SceneRunner
 from humanoid_ik.run.trajectory import Trajectory
 
 __all__ = [
+    "RUN_FILES",
     "RunOutputs",
     "check_output_dir",
     "progress_reporter",
@@ -33,6 +34,10 @@ __all__ = [
 ]
 
 T = TypeVar("T")
+
+RUN_FILES = ("metrics.csv", "metrics.json", "trajectory.npz", "trajectory.csv")
+"""What every run writes in its folder (``run``; ``render`` adds its films and stills):
+checked against the user's own files before the run starts (:func:`check_not_theirs`)."""
 
 
 def relocated(outputs: T, staging: Path, folder: Path) -> T:
@@ -162,6 +167,7 @@ def record_scene(
         RenderError: the folder cannot be created or written.
     """
     folder = scene_output_dir(scene, out_dir)
+    check_not_theirs(folder, RUN_FILES)
     runner = SceneRunner(scene)
     metrics = runner.run(on_frame=progress_reporter(progress, runner.n_frames))
     if not len(metrics):  # stopped before its first frame: the previous set stays

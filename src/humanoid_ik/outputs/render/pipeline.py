@@ -26,8 +26,9 @@ from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.models import needs_stage
 from humanoid_ik.core.names import check_name
 from humanoid_ik.errors import MotionError, RenderError, TrajectoryFileError
-from humanoid_ik.outputs.atomic import staged_outputs
+from humanoid_ik.outputs.atomic import check_not_theirs, staged_outputs
 from humanoid_ik.outputs.record import (
+    RUN_FILES,
     check_output_dir,
     progress_reporter,
     relocated,
@@ -232,6 +233,8 @@ def render_scene(
     """
     t_start = time.perf_counter()
     folder = scene_output_dir(scene, out_dir)
+    films = [f"{scene.name}.mp4"] * video + [f"{scene.name}.gif"] * scene.render.gif
+    check_not_theirs(folder, [*RUN_FILES, *films, "contact_sheet.png", "metrics.png"])
     runner = SceneRunner(scene)
     n, rs = runner.n_frames, scene.render
     reaching = [c for c, e in zip(runner.chains, scene.effectors, strict=True) if e.task == "reach"]
