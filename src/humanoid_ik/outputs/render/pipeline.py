@@ -24,6 +24,7 @@ import mujoco
 from humanoid_ik.config.scene import Scene
 from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.models import needs_stage
+from humanoid_ik.core.mujoco_warnings import mujoco_warnings
 from humanoid_ik.core.names import check_name
 from humanoid_ik.errors import MotionError, RenderError, TrajectoryFileError
 from humanoid_ik.outputs.atomic import check_not_theirs, staged_outputs
@@ -192,6 +193,7 @@ def _named(folder: Path, name: str, suffix: str) -> Path:
     return path
 
 
+@mujoco_warnings()
 def render_scene(
     scene: Scene,
     out_dir: str | os.PathLike | None = None,
@@ -314,6 +316,7 @@ def render_scene(
     )
 
 
+@mujoco_warnings()
 def replay_trajectory(
     trajectory: Trajectory,
     model: mujoco.MjModel,
@@ -374,6 +377,7 @@ def check_buffer(model: mujoco.MjModel, rs: RenderSpec) -> None:
         )
 
 
+@mujoco_warnings()
 def film_trajectory(
     trajectory: Trajectory,
     model: mujoco.MjModel,
