@@ -5,6 +5,8 @@ solvers (``auto``) and with the QP (``mink``), the human arm mapped onto each ``
 fraction of the robot's full-stretch arm length (1: the ratio of arm lengths).
 
 Per robot, solver and clip: hand position error median / p99 over reachable frames,
+the frames feasible (within the joint ranges, as far as a swivel plan knows:
+``closed_form`` arms) and the p99 over them,
 elbow direction error median, frames out of range, over a speed limit, cut to one, in
 self-collision, frames solved by the QP fallback, the hands' RMS jerk against the
 scaled human source's, frames per second (wall and CPU, ``time.process_time``).
@@ -53,11 +55,12 @@ def main() -> None:
         p.write_text(human_bvh(motion, seconds=args.frames / 120.0))
         clips[motion] = p
     print(
-        "| robot | solver | reach | clip | hand median / p99 [mm] | elbow median [deg] | "
+        "| robot | solver | reach | clip | hand median / p99 [mm] | feasible frames: p99 [mm] | "
+        "elbow median [deg] | "
         "out of range | over speed (cut) | collision frames (QP fallback) | "
         "jerk robot / source [m/s^3] | frames/s wall (CPU) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.robots.split(","):
         model = models[name]
         for solver, reach, (motion, clip) in itertools.product(
@@ -65,7 +68,7 @@ def main() -> None:
         ):
             res = retarget(clip, model, None, solver=solver, reach=reach, plot=False)
             s = res.summary
-            hands, elbows, jerks = [], [], []
+            hands, elbows, jerks, feas = [], [], [], []
             for side in ("left", "right"):
                 if side not in s:
                     continue
@@ -73,11 +76,15 @@ def main() -> None:
                 pe = h["position_error_reachable_m"]
                 if pe["median"] is not None:
                     hands.append(f"{side[0]} {pe['median'] * 1e3:.3g} / {pe['p99'] * 1e3:.3g}")
+                fe = h["position_error_feasible_m"]["p99"]
+                p99 = "-" if fe is None else format(fe * 1e3, ".3g")
+                feas.append(f"{side[0]} {h['feasible_frames']}: {p99}")
                 m = h["elbow_error_deg"]["median"]
                 elbows.append(f"{side[0]} {'-' if m is None else format(m, '.3g')}")
                 jerks.append(f"{h['jerk_rms_m_s3']:.3g} / {h['source_jerk_rms_m_s3']:.3g}")
             print(
                 f"| {name} | {solver} | {reach:g} | {motion} | {'; '.join(hands)} | "
+                f"{'; '.join(feas)} | "
                 f"{'; '.join(elbows)} | "
                 f"{s['frames_out_of_range']} | {s['frames_over_speed_limit']} "
                 f"({s['frames_speed_cut']}) | {s['collision_frames']} "

@@ -342,9 +342,8 @@ def test_failed_render_leaves_no_video(tmp_path, monkeypatch):
 
     An earlier video under the final name is kept as it was."""
     from humanoid_ik.errors import SolverError
-    from humanoid_ik.run.runner import SceneRunner
-
     from humanoid_ik.outputs.atomic import MANIFEST, write_json
+    from humanoid_ik.run.runner import SceneRunner
 
     folder = tmp_path / "c"
     folder.mkdir()

@@ -28,10 +28,10 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import rotation_log
 from humanoid_ik.solvers.analytic.closed_form.geometry import arm_context
 from humanoid_ik.solvers.analytic.closed_form.numeric import FLOATS
-from humanoid_ik.solvers.analytic.closed_form.swivel import swivel_frame, wrist_target
+from humanoid_ik.solvers.analytic.closed_form.swivel import start_elbow, swivel_frame, wrist_target
 from humanoid_ik.solvers.analytic.elbow import arm_points, elbow_frame, pole_angle
 
-__all__ = ["elbow_error", "elbow_steps", "pole_for", "swivel_for"]
+__all__ = ["elbow_error", "elbow_steps", "pole_for", "swivel_axes", "swivel_for", "swivels_of"]
 
 
 def pole_for(chain: Chain, want: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -60,16 +60,34 @@ def swivel_for(
     ``position`` (``rotation``: a pose target, whose wrist point the swivel turns about),
     in ``closed_form``'s own frame (:func:`swivel_frame`: 0 on the side of the line
     facing gravity), as its pole search starts from a pole."""
+    r, k = swivel_axes(chain, position, rotation)
+    return math.atan2(float(want @ k), float(want @ r))
+
+
+def swivel_axes(
+    chain: Chain, position: NDArray, rotation: NDArray | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(r, k)``: the unit axes of ``closed_form``'s swivel frame for that hand target
+    (:func:`swivel_frame`): an elbow offset ``e`` has the swivel ``atan2(e . k, e . r)``."""
     ctx = arm_context(chain)
     S = ctx.S
     if rotation is not None:
         t = wrist_target(ctx, position.tolist(), rotation.tolist())
     else:
         t = (float(position[0]) - S[0], float(position[1]) - S[1], float(position[2]) - S[2])
-    n, r, k = swivel_frame(FLOATS, ctx, t, ctx.rest)
-    x = float(want[0] * r[0] + want[1] * r[1] + want[2] * r[2])
-    y = float(want[0] * k[0] + want[1] * k[1] + want[2] * k[2])
-    return math.atan2(y, x)
+    _, r, k = swivel_frame(FLOATS, ctx, t, ctx.rest)
+    return np.array(r, dtype=np.float64), np.array(k, dtype=np.float64)
+
+
+def swivels_of(chain: Chain, q: NDArray[np.float64], r: NDArray, k: NDArray) -> NDArray:
+    """The swivels [rad] ``closed_form``'s answers ``q (..., n)`` are at, in the frames
+    ``r, k (..., 3)`` (:func:`swivel_axes`): the shoulder's turn of the rest elbow offset,
+    vectorised (what the answer's elbow shows, where ``closed_form`` took the feasible
+    swivel nearest the one asked for)."""
+    ctx = arm_context(chain)
+    a = np.moveaxis(q[..., :3], -1, 0)
+    e = np.stack(start_elbow(ctx, tuple(np.cos(a)), tuple(np.sin(a))), axis=-1)
+    return np.arctan2(np.sum(e * k, axis=-1), np.sum(e * r, axis=-1))
 
 
 def _normal(v: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.float64] | None:

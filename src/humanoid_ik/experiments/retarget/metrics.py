@@ -5,6 +5,13 @@ Columns of ``metrics.csv`` (one row per frame; ``<side>`` is ``left`` or ``right
 - ``<side>_position_error_m``: the hand's distance to its scaled target;
   ``<side>_reachable``: the target lies within the arm's reach (its distance from the
   arm's first joint at most the sampled reach, as a scene run says it);
+- ``<side>_in_ranges``: some swivel reaches the pose exactly inside the joint ranges
+  (``closed_form`` arms, from the swivel plan's grid at the nearest planned frame; empty
+  for other arms: not known); ``<side>_speed_need``: the plan's largest joint speed over
+  its limit around this frame (above 1: the grid's swivels, 7.5 degrees apart, do not
+  follow the clip within the speed limits; the frame loop, solving inside the speed
+  box, may); ``<side>_feasible``: reachable, and for a planned arm in the ranges: the
+  frames the hand's ``feasible`` errors are over;
 - ``<side>_orientation_error_deg``: the hand frame's angle to its target orientation;
 - ``<side>_elbow_error_deg``: the angle between the robot's and the human's elbow
   directions about the shoulder-wrist line (empty where either elbow is nearer its
@@ -25,9 +32,11 @@ Columns of ``metrics.csv`` (one row per frame; ``<side>`` is ``left`` or ``right
 - ``wall_ms``, ``cpu_ms``: the frame's solve, limits and collision check.
 
 The summary (``metrics.json``): for each error its median, 99th percentile and maximum
-(hand positions over reachable frames), the counts of frames out of range, over a speed
-limit, cut to a limit, in collision and solved by the QP fallback, the hands' RMS jerk
-next to the scaled human source's, and frames per second (wall and CPU).
+(hand positions over reachable frames, and over feasible ones: within the joint ranges
+as far as the swivel plan knows), the counts of frames out of
+range, over a speed limit, cut to a limit, in collision and solved by the QP fallback,
+the hands' RMS jerk next to the scaled human source's, and frames per second (wall and
+CPU).
 """
 
 from __future__ import annotations
@@ -113,9 +122,12 @@ class FrameTable:
         for s in self.sides:
             reach = self.array(f"{s}_reachable").astype(bool)
             err = self.array(f"{s}_position_error_m")
+            feasible = self.array(f"{s}_feasible").astype(bool)
             hand = {
                 "reachable_frames": int(reach.sum()),
                 "position_error_reachable_m": stats(err[reach]),
+                "feasible_frames": int(feasible.sum()),
+                "position_error_feasible_m": stats(err[feasible]),
                 "position_error_m": stats(err),
                 "orientation_error_deg": stats(self.array(f"{s}_orientation_error_deg")),
                 "elbow_error_deg": stats(self.array(f"{s}_elbow_error_deg")),

@@ -318,6 +318,10 @@ def _run(r: Retargeter, robot: RobotSide, targets: Targets, dt: float):
             ep = float(np.linalg.norm(p - t.position[f]))
             er = _angle(R, t.rotation(f)) if arm.pose else math.nan
             ok = float(np.linalg.norm(t.position[f] - arm.shoulder)) <= arm.length
+            plan = r.plan.get(side)
+            in_ranges = None if plan is None else bool(plan.in_ranges[f])
+            need = None if plan is None else float(plan.speed_need[f])
+            feasible = ok and (plan is None or bool(plan.in_ranges[f]))
             ang, bend = elbow_error(c, t.elbow[f])
             elbow = math.degrees(ang) if min(bend, float(t.bend[f])) >= BENT else math.nan
             row |= {
@@ -325,6 +329,9 @@ def _run(r: Retargeter, robot: RobotSide, targets: Targets, dt: float):
                 f"{side}_orientation_error_deg": er,
                 f"{side}_elbow_error_deg": elbow,
                 f"{side}_reachable": ok,
+                f"{side}_in_ranges": in_ranges,
+                f"{side}_speed_need": need,
+                f"{side}_feasible": feasible,
                 f"{side}_solver": fs.solver.get(side, ""),
             }
             lm_ = c.limit_margin(r.q[side])

@@ -6,7 +6,10 @@ Per arm, with ``solver="auto"`` (the exact solvers where ``auto`` would take the
 - a pose target (an arm of 6 joints or more) on a chain ``closed_form`` solves (a
   spherical shoulder and wrist: the bundled humanoid): ``closed_form`` at the swivel
   planned over the clip (:func:`~.plan.plan_swivels`: the human elbow's where it is
-  bent, the least joint motion within the speed limits), exact;
+  bent, the least joint motion within the speed limits), from the plan's joints (its
+  branches), exact; where that is faster than the limits, the hand position first
+  inside the speed box from that answer alone (:func:`~.speed.bounded_solve`), so the
+  arm stays on the plan's branches;
 - a position target (an arm of fewer than 6 joints) on a chain ``two_link`` solves:
   ``two_link`` with the human elbow as its pole (``Target.pole``: the branch, and a
   three-hinge shoulder's twist, that put the elbow in the pole's plane);
@@ -45,7 +48,7 @@ from humanoid_ik.core.rotations import axis_name, mat_to_quat
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import RetargetError, choices
 from humanoid_ik.experiments.retarget.elbow import elbow_error, elbow_steps, pole_for, swivel_for
-from humanoid_ik.experiments.retarget.plan import plan_swivels
+from humanoid_ik.experiments.retarget.plan import Plan, plan_swivels
 from humanoid_ik.experiments.retarget.robot import RobotArm, RobotSide
 from humanoid_ik.experiments.retarget.speed import STEPS, bounded_solve
 from humanoid_ik.experiments.retarget.targets import STRAIGHT, Targets, rest_offset
@@ -125,8 +128,8 @@ class Retargeter:
         if self.gaze_on:
             self.method["head"] = "look_at" if solver == "auto" else "mink"
         self._qp: Any = None
-        self.plan: dict[str, NDArray[np.float64]] = {}
-        """The planned swivel per frame of each ``closed_form`` arm (:mod:`.plan`)."""
+        self.plan: dict[str, Plan] = {}
+        """The plan of each ``closed_form`` arm (:mod:`.plan`)."""
         self.q = {s: a.chain.clip(a.chain.q_home) for s, a in self.arms.items()}
         if self.gaze_on:
             assert robot.head is not None
@@ -238,11 +241,16 @@ class Retargeter:
             return ratio <= 1.0 and err <= 1e-3
 
         if side in self.plan:
-            res = ClosedForm(swivel=float(self.plan[side][f])).solve(
-                arm.chain, self.target(side, f), q0
-            )
+            plan = self.plan[side]
+            tgt = self.target(side, f)
+            res = ClosedForm(swivel=float(plan.swivel[f])).solve(arm.chain, tgt, plan.seeds[f])
             if keep(res, "closed_form"):
                 return res, "closed_form"
+            if res.converged and f > 0:
+                # too fast: inside the speed box from the planned answer alone, which
+                # keeps the arm on the plan's branches (the slower answers of the tries
+                # below are on the previous frame's, where the plan may not go on)
+                return self._bounded(side, arm, f, q0, (res.q,)), "closed_form+bounded"
         for k in range(SPEED_TRIES if w > 0 else 0):
             if keep(*self._arm_once(side, arm, f, q0, w * 0.5**k)):
                 return best[1], best[2]  # type: ignore[index]
@@ -261,18 +269,20 @@ class Retargeter:
         res, how = best[1], best[2]
         if f == 0:
             return res, how
-        return self._bounded(side, arm, f, q0, res), how + "+bounded"
+        return self._bounded(side, arm, f, q0, (res.q, q0)), how + "+bounded"
 
-    def _bounded(self, side: str, arm: RobotArm, f: int, q0: NDArray, res: IKResult) -> IKResult:
+    def _bounded(
+        self, side: str, arm: RobotArm, f: int, q0: NDArray, starts: tuple[NDArray, ...]
+    ) -> IKResult:
         """The hand's position first inside the speed box around ``q0``
-        (:func:`~.speed.bounded_solve`), from the fastest answer cut into the box and
-        from ``q0``; the better of the two."""
+        (:func:`~.speed.bounded_solve`) from each of ``starts`` cut into the box; the
+        best of them."""
         c, t = arm.chain, self.targets.arms[side]
         step = arm.speed * self.dt
         lo, hi = np.maximum(c.lower, q0 - step), np.minimum(c.upper, q0 + step)
         R = t.rotation(f) if arm.pose else None
         p = t.position[f]
-        best = min((bounded_solve(c, s, lo, hi, p, R) for s in (res.q, q0)), key=lambda r: r[1])
+        best = min((bounded_solve(c, s, lo, hi, p, R) for s in starts), key=lambda r: r[1])
         c.set_q(best[0])
         tgt = self.target(side, f)
         ep, er = pose_error(c.position, c.rotation, p, tgt.quat, *error_buffers(c))
