@@ -262,7 +262,9 @@ def _check_complete_or_absent(kind: str, out: Path, sweep: Path | None) -> None:
             assert read_dataset(out / "d.npz").positions.shape == (DATASET_PAIRS, 3)
         return
     assert sweep is not None
-    for record in (out / "jobs").glob("*.json"):
+    # the records under their final names (a SIGKILL may leave a hidden temporary beside
+    # them, ``.ID.PID.TID.tmp.json``: the next run removes it, see _check_rerun)
+    for record in (out / "jobs").glob("[!.]*.json"):
         assert json.loads(record.read_text())["status"] in ("ok", "failed", "skipped")
     if (out / "summary.csv").exists():
         rows = (out / "summary.csv").read_text().splitlines()
