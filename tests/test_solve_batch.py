@@ -35,13 +35,7 @@ def test_batch_answers_are_the_single_calls(g1_arm, workers):
     assert len(batch) == 40
     for t, got in zip(targets, batch, strict=True):
         want = solve(g1_arm, t, "auto", q0=q0)
-        np.testing.assert_array_equal(got.q, want.q)
-        assert (got.status, got.iterations, got.solver) == (
-            want.status,
-            want.iterations,
-            want.solver,
-        )
-        assert got.position_error == want.position_error
+        assert got == want  # joints, status, iterations, errors, solver and message
         assert got.converged and got.position_error < 1e-4
 
 

@@ -815,3 +815,20 @@ def test_ikresult_details_field():
         res.details["phi"] = 2.0  # type: ignore[index]
     assert res.to_dict()["details"] == {"phi": 1.5, "axis": {"phi": 0.5, "axis": [0.0, 0.0, 1.0]}}
     assert not next(f for f in dataclasses.fields(IKResult) if f.name == "details").compare
+
+
+def test_ikresult_equality_and_pickling():
+    """Two results are equal when every field but ``details`` is (``q`` element by
+    element; it raised on the array before); they pickle (``details`` kept) and are not
+    hashable."""
+    import pickle
+
+    a = IKResult(np.array([0.1, 0.2]), True, 3, 1e-6, None, "converged", "lm", details={"x": 1})
+    same = IKResult(np.array([0.1, 0.2]), True, 3, 1e-6, None, "converged", "lm")
+    other_q = IKResult(np.array([0.1, 0.3]), True, 3, 1e-6, None, "converged", "lm")
+    other_status = IKResult(np.array([0.1, 0.2]), False, 3, 1e-6, None, "max_iterations", "lm")
+    assert a == same and a != other_q and a != other_status and a != "converged"
+    back = pickle.loads(pickle.dumps(a))
+    assert back == a and dict(back.details) == {"x": 1} and back.status is a.status
+    with pytest.raises(TypeError):
+        hash(a)
