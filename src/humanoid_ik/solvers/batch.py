@@ -4,8 +4,8 @@ Every target is solved on its own from the same start, exactly as :func:`~.one_c
 solves it: the answers are the single calls' bit for bit, whatever ``workers`` is. With
 ``workers`` above 1 the targets go in contiguous chunks to that many processes, each
 holding its own copy of the robot (the model as it is now, and its current joints); a
-process costs about half a second to start (it imports MuJoCo), so this pays from a few
-thousand targets on.
+process costs about a second to start (it imports MuJoCo and reads the model), so this
+pays from tens of thousands of targets (``benchmarks/batch.py``).
 """
 
 from __future__ import annotations
@@ -164,6 +164,7 @@ def solve_batch(
     if not items:
         return []
     n_workers = min(int(workers) or (os.cpu_count() or 1), len(items))
+    qpos = chain.data.qpos.copy()  # the robot's pose the workers copy, before any solve
     first = solve(chain, items[0], solver, q0=start, **options)  # checks solver and start
     if n_workers <= 1:
         return [first] + [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
@@ -178,7 +179,6 @@ def solve_batch(
     with tempfile.TemporaryDirectory(prefix="humanoid-ik-batch-") as folder:
         model_file = os.path.join(folder, "model.mjb")
         mujoco.mj_saveModel(chain.model, model_file, None)
-        qpos = chain.data.qpos.copy()
         args = (model_file, qpos, ee, list(chain.joint_names), start, solver, options)
         with ProcessPoolExecutor(
             n_workers, mp_context=ctx, initializer=_start_worker, initargs=args
