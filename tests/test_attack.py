@@ -352,6 +352,28 @@ def test_no_command_replaces_the_users_files(capsys, files, tmp_path, args, stat
         )
 
 
+def test_a_file_of_the_users_that_the_render_does_not_write_is_no_obstacle(tmp_path):
+    """A render without the plot into a folder holding the user's own ``metrics.png``
+    runs (it writes no file of that name) and leaves that file as it was; with the plot
+    it is refused before the run, nothing written."""
+    from humanoid_ik.config.scene import load_scene
+    from humanoid_ik.outputs.render import render_scene
+
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "metrics.png").write_text("the user's own\n")
+    scene = load_scene("circle").with_overrides(frames=2, width=64, height=48)
+    out = render_scene(scene, folder, video=False, plot=False)
+    assert out.frames == 2 and (folder / "trajectory.npz").is_file()
+    assert (folder / "metrics.png").read_text() == "the user's own\n"
+    other = tmp_path / "mine2"
+    other.mkdir()
+    (other / "metrics.png").write_text("the user's own\n")
+    with pytest.raises(FileExistsError, match="metrics.png"):
+        render_scene(scene, other, video=False, plot=True)
+    assert _listing(other) == ["metrics.png"]
+
+
 def test_bench_json_folder_is_refused_before_the_run(capsys, tmp_path):
     """``bench --json <folder>`` (even the filesystem root's child ``/tmp``-like case: a
     folder whose parent is writable) is refused before any solve: nothing on stdout, no

@@ -235,8 +235,14 @@ def render_scene(
     """
     t_start = time.perf_counter()
     folder = scene_output_dir(scene, out_dir)
-    films = [f"{scene.name}.mp4"] * video + [f"{scene.name}.gif"] * scene.render.gif
-    check_not_theirs(folder, [*RUN_FILES, *films, "contact_sheet.png", "metrics.png"])
+    known = [  # the files this render writes whatever its length (the stills depend on it)
+        *RUN_FILES,
+        *([f"{scene.name}.mp4"] if video else []),
+        *([f"{scene.name}.gif"] if scene.render.gif else []),
+        *(["contact_sheet.png"] if scene.render.contact_sheet > 0 else []),
+        *(["metrics.png"] if plot else []),
+    ]
+    check_not_theirs(folder, known)
     runner = SceneRunner(scene)
     n, rs = runner.n_frames, scene.render
     reaching = [c for c, e in zip(runner.chains, scene.effectors, strict=True) if e.task == "reach"]
