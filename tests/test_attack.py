@@ -388,25 +388,25 @@ def test_bench_json_folder_is_refused_before_the_run(capsys, tmp_path):
     assert time.perf_counter() - t0 < 60  # refused, not benchmarked (500 targets x 7 solvers)
 
 
-def test_damaged_job_record_runs_again_with_a_note(capsys, tmp_path):
-    """A job record cut down to ``{"status": "ok"}`` does not break the resume: the job
-    runs again (with a note naming the file) and its record is whole again."""
+def test_damaged_job_result_runs_again_with_a_note(capsys, tmp_path):
+    """A job result cut down to ``{"status": "ok"}`` does not break the resume: the job
+    runs again (with a note naming the file) and its result is whole again."""
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(SWEEP)
     out = tmp_path / "o"
     argv = ["sweep", str(sweep), "--out", str(out), "--workers", "1", "--no-plot"]
     assert main(argv) == 0
-    (record,) = (out / "jobs").glob("*.json")
-    whole = json.loads(record.read_text())
+    (result,) = (out / "jobs").glob("*.json")
+    whole = json.loads(result.read_text())
     capsys.readouterr()
     for damage in ('{"status": "ok"}', "[1, 2]", "{not json", json.dumps({**whole, "id": "x"})):
-        record.write_text(damage)
+        result.write_text(damage)
         assert main(argv) == 0
         stdout, err = capsys.readouterr()
         assert "1 job(s), 0 already done, 1 to run" in stdout
-        assert f"humanoid-ik: note: {record} is not a whole job record" in err
+        assert f"humanoid-ik: note: {result} is not a whole job result" in err
         assert "that job runs again" in err and "Traceback" not in err
-        again = json.loads(record.read_text())
+        again = json.loads(result.read_text())
         assert again["status"] == "ok" and again["id"] == whole["id"]
     assert main(argv) == 0
     assert "1 already done, 0 to run" in capsys.readouterr().out

@@ -26,7 +26,7 @@ from humanoid_ik.experiments.retarget import retarget
 from humanoid_ik.motion.human import human_bvh
 from humanoid_ik.outputs.bvh import bvh_text
 from humanoid_ik.outputs.keyframes import keyframes_xml
-from humanoid_ik.outputs.record import record_scene
+from humanoid_ik.outputs.run_files import write_run
 from humanoid_ik.outputs.trajectory import load_trajectory, write_trajectory
 from humanoid_ik.run.trajectory import EffectorTrack, Trajectory, qpos_names
 from tests.robots import robot_file
@@ -39,7 +39,7 @@ ENDS = ("right_palm_site", "left_palm_site", "gaze_site")
 def showcase(tmp_path_factory):
     """showcase run in full: 180 frames over 6 s (both hands and the head move)."""
     folder = tmp_path_factory.mktemp("showcase")
-    out = record_scene(load_scene("showcase"), folder)
+    out = write_run(load_scene("showcase"), folder)
     return out.trajectory[0]
 
 
@@ -283,7 +283,7 @@ site = "tip"
 target = "ball"
 """
     )
-    out = record_scene(load_scene(tmp_path / "reach.toml"), tmp_path / "run")
+    out = write_run(load_scene(tmp_path / "reach.toml"), tmp_path / "run")
     bvh = tmp_path / "arm.bvh"
     assert main(["export-bvh", str(out.trajectory[0]), "--out", str(bvh)]) == 0
     text = bvh.read_text()
@@ -331,7 +331,7 @@ joints = {json.dumps(arm)}
 target = "ball"
 """
     )
-    out = record_scene(load_scene(scene), folder / "out")
+    out = write_run(load_scene(scene), folder / "out")
     bvh = folder / "g1.bvh"
     assert main(["export-bvh", str(out.trajectory[0]), "--out", str(bvh)]) == 0
     traj = load_trajectory(out.trajectory[0])

@@ -246,7 +246,7 @@ def test_a_hidden_marker_is_painted_over_the_robot():
     """A target inside the humanoid's torso is hidden from the front camera (a ray from
     the camera meets the torso first, and MuJoCo's picture shows the torso there); its
     marker is painted over the picture, green around the target's projection."""
-    from humanoid_ik.run.metrics import EffectorSample, FrameRecord
+    from humanoid_ik.run.metrics import EffectorSample, FrameSamples
 
     m = mujoco.MjModel.from_xml_path(str(REPO / "models" / "humanoid" / "scene.xml"))
     d = mujoco.MjData(m)
@@ -275,7 +275,7 @@ def test_a_hidden_marker_is_painted_over_the_robot():
     with FrameRenderer(m, W, H, "front", 0) as fr:
         fr.renderer.update_scene(d, camera=cam)
         plain = fr.renderer.render()
-        drawn = fr.render(d, FrameRecord(0, 0.0, (sample,)))
+        drawn = fr.render(d, FrameSamples(0, 0.0, (sample,)))
     before = [colour_class(px) for px in plain[row - 1 : row + 2, col - 1 : col + 2].reshape(-1, 3)]
     after = [colour_class(px) for px in drawn[row - 1 : row + 2, col - 1 : col + 2].reshape(-1, 3)]
     assert before.count("green") == 0 and after.count("green") >= 4, (before, after)

@@ -90,7 +90,7 @@ def test_scene_seed_changes_random_walk_only(tmp_path):
     }
     sweep = parse_sweep(doc, "s.toml")
     res = run_sweep(sweep, tmp_path / "out", workers=1, plot=False)
-    a, b = res.records
+    a, b = res.results
     assert a["status"] == b["status"] == "ok" and a["seed"] == 0 and b["seed"] == 1
     assert a["max_error_m"] != b["max_error_m"] or a["median_error_m"] != b["median_error_m"]
 
@@ -220,6 +220,42 @@ def test_rerun_skips_finished_jobs(tmp_path):
     ]
 
 
+def test_the_former_record_names_warn_and_give_the_new_objects(tmp_path):
+    """A job's result was its "record": ``read_records``, ``damaged_records`` (package
+    and ``resume``), ``failed_record``, ``new_record`` (``jobs``) and
+    ``SweepResult.records`` stay for one release, each use with a ``DeprecationWarning``
+    naming the new name and pointing at the line that used it, giving the new object."""
+    import humanoid_ik.experiments.sweep as package
+    from humanoid_ik.experiments.sweep import jobs, resume
+
+    renamed = [
+        (package, "read_records", "read_results"),
+        (package, "damaged_records", "damaged_results"),
+        (resume, "read_records", "read_results"),
+        (resume, "damaged_records", "damaged_results"),
+        (jobs, "failed_record", "failed_result"),
+        (jobs, "new_record", "new_result"),
+    ]
+    for module, old, new in renamed:
+        with pytest.warns(
+            DeprecationWarning, match=rf"{old} is deprecated; use .*\.{new}$"
+        ) as said:
+            assert getattr(module, old) is getattr(module, new)
+        assert said[0].filename == __file__
+    with pytest.warns(DeprecationWarning, match="read_results"):
+        from humanoid_ik.experiments.sweep import read_records
+    job = load_sweep(_write(tmp_path, TINY)).jobs[0]
+    assert read_records(tmp_path, [job]) == {}  # no jobs/ folder: nothing finished
+    result = jobs.failed_result(job, RuntimeError("worker died"))
+    assert result["id"] == job.id and result["error"] == "RuntimeError: worker died"
+    done = resume.SweepResult([result], [job.id], [], [], 0.5)
+    with pytest.warns(DeprecationWarning, match=r"SweepResult\.results") as said:
+        assert done.records is done.results
+    assert said[0].filename == __file__ and done.counts()["failed"] == 1
+    with pytest.raises(AttributeError, match="no attribute 'read_jobs'"):
+        package.read_jobs  # noqa: B018 - nothing else resolves
+
+
 def test_failed_job_is_recorded_and_others_finish(tmp_path):
     """A job whose scene file changed after loading fails with its error; the rest finish."""
     scene = tmp_path / "mine.toml"
@@ -228,7 +264,7 @@ def test_failed_job_is_recorded_and_others_finish(tmp_path):
     sweep = load_sweep(_write(tmp_path, text))
     scene.write_text(scene.read_text() + "\n# edited\n")
     res = run_sweep(sweep, tmp_path / "out", workers=2, plot=False)
-    failed = [r for r in res.records if r["status"] == "failed"]
+    failed = [r for r in res.results if r["status"] == "failed"]
     assert len(failed) == 3 and all(r["kind"] == "scene" for r in failed)
     assert all("SweepError" in r["error"] and "changed" in r["error"] for r in failed)
     assert res.counts()["ok"] == len(sweep.jobs) - 3
@@ -242,8 +278,8 @@ def test_skipped_solver_is_recorded(tmp_path):
     """A solver that does not fit the task (ccd on pose targets) is recorded as skipped."""
     doc = {"solvers": ["ccd"], "targets": [{"name": "p", "n": 2, "task": "pose"}]}
     res = run_sweep(parse_sweep(doc, "s.toml"), tmp_path, workers=1, plot=False)
-    (rec,) = res.records
-    assert rec["status"] == "skipped" and "position targets only" in rec["error"]
+    (result,) = res.results
+    assert result["status"] == "skipped" and "position targets only" in result["error"]
 
 
 def test_bad_workers_and_unwritable_out(tmp_path):
@@ -295,7 +331,7 @@ def test_local_pool_and_ray_give_the_same_summary(tmp_path):
 def test_local_ray_runs_in_a_process_group_of_its_own_and_tags_nothing(tmp_path):
     """``--ray local`` (no Ray initialised here) runs Ray from a process of its own, in
     a process group that is not the caller's, and puts nothing into the caller's
-    environment, not even while the records come back; the summary equals the local
+    environment, not even while the results come back; the summary equals the local
     pool's."""
     ray = pytest.importorskip("ray")
     sweep = load_sweep(_write(tmp_path, TINY.replace("seeds = [0, 1]", "seeds = [0]")))
@@ -303,12 +339,12 @@ def test_local_ray_runs_in_a_process_group_of_its_own_and_tags_nothing(tmp_path)
     before = dict(os.environ)
     seen: list[tuple[dict[str, str], int]] = []
 
-    def on_record(done, total, rec):
+    def on_result(done, total, result):
         seen.append((dict(os.environ), os.getpgrp()))
 
     assert not ray.is_initialized()
     remote = run_sweep(
-        sweep, tmp_path / "ray", workers=2, ray_address="local", progress=on_record, plot=False
+        sweep, tmp_path / "ray", workers=2, ray_address="local", progress=on_result, plot=False
     )
     assert not ray.is_initialized() and dict(os.environ) == before
     assert seen == [(before, os.getpgrp())] * len(sweep.jobs)
@@ -342,8 +378,8 @@ def test_broken_scene_job_still_gets_summary_and_plot(tmp_path):
     sweep = parse_sweep(doc, "s.toml")
     scene.write_text("broken = ")
     res = run_sweep(sweep, tmp_path / "out", workers=1)
-    (rec,) = res.records
-    assert rec["status"] == "failed" and "SceneError" in rec["error"]
+    (result,) = res.results
+    assert result["status"] == "failed" and "SceneError" in result["error"]
     assert (tmp_path / "out" / "summary.png").is_file()
 
 
@@ -393,8 +429,8 @@ def test_edited_model_file_runs_its_jobs_again(tmp_path):
     mine = sorted(j.id for j in sweep.jobs if j.name in ("mine", "compare_dls"))
     again = run_sweep(sweep, out, workers=1, plot=False)
     assert sorted(again.executed) == mine and len(again.cached) == 1
-    before = {r["name"]: r for r in first.records}
-    after = {r["name"]: r for r in again.records}
+    before = {r["name"]: r for r in first.results}
+    after = {r["name"]: r for r in again.results}
     assert after["bundled"] == before["bundled"]
     assert after["mine"]["id"] != before["mine"]["id"]
     assert after["mine"]["max_error_m"] != before["mine"]["max_error_m"]
@@ -409,7 +445,7 @@ def test_model_changed_after_loading_fails_its_jobs(tmp_path):
         (tmp_path / "model" / "humanoid.xml").read_text() + "\n<!-- edited -->\n"
     )
     res = run_sweep(sweep, tmp_path / "out", workers=1, plot=False)
-    failed = {r["name"]: r["error"] for r in res.records if r["status"] == "failed"}
+    failed = {r["name"]: r["error"] for r in res.results if r["status"] == "failed"}
     assert sorted(failed) == ["compare_dls", "mine"]
     assert all(
         "scene.xml" in e and "changed after the sweep was loaded" in e for e in failed.values()

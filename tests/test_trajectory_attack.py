@@ -657,7 +657,7 @@ def test_the_checked_model_is_the_one_named(good, tmp_path, capsys):
 
 
 def test_a_name_from_python_is_held_to_the_same_rule(good, tmp_path):
-    """``render_scene``, ``record_scene``, ``replay_trajectory`` and
+    """``render_scene``, ``write_run``, ``replay_trajectory`` and
     ``write_trajectory`` refuse a scene name that would lead out of the folder (or be
     empty, or a dot-name), whatever built the scene: nothing is written anywhere."""
     from dataclasses import replace
@@ -665,15 +665,15 @@ def test_a_name_from_python_is_held_to_the_same_rule(good, tmp_path):
     from humanoid_ik.config.scene import load_scene
     from humanoid_ik.core.models import load_model
     from humanoid_ik.errors import SceneError
-    from humanoid_ik.outputs.record import record_scene
     from humanoid_ik.outputs.render.pipeline import render_scene, replay_trajectory
+    from humanoid_ik.outputs.run_files import write_run
     from humanoid_ik.outputs.trajectory import write_trajectory
 
     scene = load_scene("circle").with_overrides(frames=2)
     out = tmp_path / "a" / "out"
     traj = load_trajectory(good / "trajectory.npz")
     for name in ("../../x", "/tmp/elsewhere/x", "", ".", "..", ".hidden", "a/b", "x" * 101):
-        for run in (render_scene, record_scene):
+        for run in (render_scene, write_run):
             with pytest.raises(SceneError, match=r"name: expected a name of letters"):
                 run(replace(scene, name=name), out)
         with pytest.raises(TrajectoryFileError, match="scene: expected a name of letters"):

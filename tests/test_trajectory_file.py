@@ -19,7 +19,7 @@ from humanoid_ik.config.scene import load_scene
 from humanoid_ik.config.sweep_file import model_digest
 from humanoid_ik.core.models import bundled_model_path, load_model
 from humanoid_ik.errors import TrajectoryFileError
-from humanoid_ik.outputs.record import record_scene
+from humanoid_ik.outputs.run_files import write_run
 from humanoid_ik.outputs.trajectory import load_trajectory, write_trajectory
 from humanoid_ik.run.runner import SceneRunner, frame_loop
 from humanoid_ik.run.trajectory import Trajectory, check_trajectory_model, qpos_names
@@ -32,14 +32,14 @@ def showcase(tmp_path_factory):
     """The showcase scene (two hands and the gaze) run for 12 frames over its 6 s."""
     folder = tmp_path_factory.mktemp("showcase")
     scene = load_scene("showcase").with_overrides(frames=12)
-    return scene, record_scene(scene, folder)
+    return scene, write_run(scene, folder)
 
 
 @pytest.fixture(scope="module")
 def posed(tmp_path_factory):
     """A scene with a pose target (figure8_pose), 6 frames."""
     folder = tmp_path_factory.mktemp("posed")
-    return record_scene(load_scene("figure8_pose").with_overrides(frames=6), folder)
+    return write_run(load_scene("figure8_pose").with_overrides(frames=6), folder)
 
 
 def test_run_writes_both_files_and_they_agree(showcase):
@@ -95,7 +95,7 @@ body = "tool_link"
 target = "p"
 """
     )
-    out = record_scene(load_scene(tmp_path / "tool.toml"), tmp_path / "run")
+    out = write_run(load_scene(tmp_path / "tool.toml"), tmp_path / "run")
     npz, csv = out.trajectory
     header = json.loads(csv.read_text().splitlines()[0][2:])
     assert header["effectors"][0]["body"] == "tool_link" and "site" not in header["effectors"][0]
@@ -203,8 +203,8 @@ def test_interrupted_run_keeps_its_frames(tmp_path):
     runner = SceneRunner(scene)
 
     class Stop:
-        def add_frame(self, record, data):
-            if record.index == 3:
+        def add_frame(self, frame, data):
+            if frame.index == 3:
                 raise KeyboardInterrupt
 
     recording = runner.run(sinks=[Stop()])
@@ -217,7 +217,7 @@ def test_interrupted_run_keeps_its_frames(tmp_path):
 
 @pytest.mark.parametrize("suffix", ["npz", "csv"])
 def test_a_trajectory_file_gives_back_every_sample_of_the_run(tmp_path, suffix):
-    """One recording per run: what the files hold turns back into the run's records,
+    """One recording per run: what the files hold turns back into the run's frames,
     field for field (iterations, solve time, limit margin and orientation error were
     lost on the way back before)."""
     scene = load_scene("figure8_pose").with_overrides(frames=6)
@@ -225,7 +225,7 @@ def test_a_trajectory_file_gives_back_every_sample_of_the_run(tmp_path, suffix):
     write_trajectory(recording.trajectory(), tmp_path)
     back = load_trajectory(tmp_path / f"trajectory.{suffix}")
     for i, frame in enumerate(recording.frames):
-        assert _same_frame(back.record(i), frame)
+        assert _same_frame(back.frame_samples(i), frame)
     assert any(s.orientation_error is not None for s in recording.frames[0].samples)
     assert all(s.iterations > 0 for f in recording.frames for s in f.samples[:1])
 
@@ -433,6 +433,41 @@ def test_the_former_names_of_the_recording_warn_and_still_work():
     recording = runner.run(sinks=[old])
     np.testing.assert_array_equal(old.trajectory().qpos, recording.trajectory().qpos)
     assert old.trajectory().n_frames == 4
+
+
+def test_the_former_record_names_warn_and_give_the_new_objects(tmp_path):
+    """ "Record" named three things; the former names stay for one release, each use with
+    a ``DeprecationWarning`` naming the new name, pointing at the line that used it, and
+    giving the new object: ``FrameRecord`` is ``FrameSamples``, ``Trajectory.record`` is
+    ``Trajectory.frame_samples``, and every name of ``outputs.record`` is
+    ``outputs.run_files``' (``record_scene``: ``write_run``)."""
+    import humanoid_ik.outputs.record as record
+    import humanoid_ik.outputs.run_files as run_files
+    import humanoid_ik.run.metrics as metrics
+
+    with pytest.warns(
+        DeprecationWarning, match=r"FrameRecord is deprecated; use .*FrameSamples"
+    ) as said:
+        assert metrics.FrameRecord is metrics.FrameSamples
+    assert said[0].filename == __file__
+    with pytest.warns(DeprecationWarning, match=r"run_files\.write_run"):
+        from humanoid_ik.outputs.record import record_scene
+    assert record_scene is run_files.write_run
+    for name in [n for n in run_files.__all__ if n != "write_run"]:
+        with pytest.warns(
+            DeprecationWarning, match=rf"use humanoid_ik\.outputs\.run_files\.{name}$"
+        ):
+            assert getattr(record, name) is getattr(run_files, name)
+    with pytest.raises(AttributeError, match="no attribute 'write_run'"):
+        record.write_run  # noqa: B018 - only the old names resolve there
+
+    recording = SceneRunner(load_scene("circle").with_overrides(frames=3)).run()
+    traj = recording.trajectory()
+    with pytest.warns(DeprecationWarning, match=r"Trajectory\.frame_samples") as said:
+        old = traj.record(2)
+    assert said[0].filename == __file__
+    assert isinstance(old, metrics.FrameSamples) and old.index == 2
+    assert _same_frame(old, traj.frame_samples(2)) and _same_frame(old, recording.frames[2])
 
 
 def test_a_site_and_a_body_of_one_name_keep_their_own_columns(showcase, tmp_path):

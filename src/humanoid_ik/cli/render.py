@@ -26,9 +26,9 @@ __all__ = ["register"]
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from humanoid_ik.outputs.record import check_output_dir
     from humanoid_ik.outputs.render.backend import select_backend
     from humanoid_ik.outputs.render.pipeline import render_scene
+    from humanoid_ik.outputs.run_files import check_output_dir
 
     if args.camera is not None:
         from humanoid_ik.config.scene import load_scene, scene_model

@@ -24,9 +24,9 @@ __all__ = ["register"]
 def _cmd_replay(args: argparse.Namespace) -> int:
     from humanoid_ik.core.models import model_cameras
     from humanoid_ik.outputs.atomic import published
-    from humanoid_ik.outputs.record import check_output_dir
     from humanoid_ik.outputs.render.backend import select_backend
     from humanoid_ik.outputs.render.pipeline import replay_trajectory
+    from humanoid_ik.outputs.run_files import check_output_dir
     from humanoid_ik.outputs.trajectory import open_trajectory
 
     traj, model, digest = open_trajectory(

@@ -23,12 +23,12 @@ __all__ = ["register"]
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from humanoid_ik.outputs.record import record_scene
+    from humanoid_ik.outputs.run_files import write_run
 
     scene, out = scene_from_args(args)
     progress, close = run_progress(scene)
     try:
-        result = record_scene(scene, out, progress=progress)
+        result = write_run(scene, out, progress=progress)
     finally:
         close()
     print(f"{scene.name}: {result.frames} frame(s) at {scene.fps:g} frames/s")

@@ -136,7 +136,7 @@ def scene_from_args(
         SceneError: the scene (with the choices) does not check.
     """
     from humanoid_ik.config.scene import check_scene, load_scene
-    from humanoid_ik.outputs.record import check_output_dir
+    from humanoid_ik.outputs.run_files import check_output_dir
 
     scene = load_scene(args.scene, **scene_source(args))
     for note in scene.notes:

@@ -12,7 +12,7 @@ from typing import Any
 from humanoid_ik.cli.args import UsageError, int_in, nonempty_path, ray_address
 from humanoid_ik.cli.progress import progress_bar
 from humanoid_ik.config.sweep_file import load_sweep
-from humanoid_ik.experiments.sweep import check_out, damaged_records, read_records, run_sweep
+from humanoid_ik.experiments.sweep import check_out, damaged_results, read_results, run_sweep
 from humanoid_ik.experiments.sweep.executors import MAX_WORKERS
 from humanoid_ik.experiments.sweep.summary import percent
 
@@ -31,10 +31,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     check_out(out)  # before anything is announced or run
     todo = len(sweep.jobs)
     if out.is_dir():
-        todo -= len(read_records(out, sweep.jobs))
-        for path, why in damaged_records(out, sweep.jobs).items():
+        todo -= len(read_results(out, sweep.jobs))
+        for path, why in damaged_results(out, sweep.jobs).items():
             print(
-                f"humanoid-ik: note: {path} is not a whole job record ({why}); that job runs again",
+                f"humanoid-ik: note: {path} is not a whole job result ({why}); that job runs again",
                 file=sys.stderr,
             )
     where = "local pool" if args.ray is None else f"Ray ({args.ray})"
@@ -45,9 +45,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     bar = progress_bar(todo, "job", sweep.name)
     failed: list[dict] = []
 
-    def progress(done: int, total: int, record: dict) -> None:
-        if record["status"] == "failed":
-            failed.append(record)
+    def progress(done: int, total: int, result: dict) -> None:
+        if result["status"] == "failed":
+            failed.append(result)
         if bar is not None:
             bar.update(1)
 
@@ -65,7 +65,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             bar.close()
     # one line per solver configuration, pooled over every set and seed
     by_config: dict[str, list[dict]] = {}
-    for r in result.records:
+    for r in result.results:
         if r["status"] == "ok":
             by_config.setdefault(r["config"], []).append(r)
     if by_config:

@@ -89,7 +89,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     check_display()  # before --out is made: a bad display leaves nothing behind
     made = args.out is not None and not os.path.lexists(args.out)
     if args.out is not None:
-        from humanoid_ik.outputs.record import check_output_dir
+        from humanoid_ik.outputs.run_files import check_output_dir
 
         check_output_dir(args.out)
 

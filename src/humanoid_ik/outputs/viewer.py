@@ -44,7 +44,7 @@ from humanoid_ik.outputs.atomic import signals_held, staged_outputs
 from humanoid_ik.outputs.render.drawing import marker_radius
 from humanoid_ik.outputs.stage import staged_spec
 from humanoid_ik.outputs.trajectory import write_trajectory
-from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.metrics import FrameSamples
 from humanoid_ik.run.runner import SceneRunner, frame_loop
 from humanoid_ik.run.trajectory import Trajectory
 
@@ -182,10 +182,10 @@ class ViewOutputs:
     recorded: Trajectory
 
 
-def _overlay(record: FrameRecord, solvers: list[str]) -> tuple[str, str]:
+def _overlay(frame: FrameSamples, solvers: list[str]) -> tuple[str, str]:
     """The overlay's two columns: per effector its solver, error and solve time."""
-    left, right = ["time"], [f"{record.time:.2f} s"]
-    for s, label in zip(record.samples, solvers, strict=True):
+    left, right = ["time"], [f"{frame.time:.2f} s"]
+    for s, label in zip(frame.samples, solvers, strict=True):
         left.append(s.effector)
         right.append(
             f"{label}  error {s.position_error * 1e3:.2f} mm  solve {s.solve_time * 1e3:.2f} ms"
@@ -286,7 +286,7 @@ def view_scene(
         shown = viewer
         start = time.perf_counter()
 
-        def step(i: int) -> FrameRecord:
+        def step(i: int) -> FrameSamples:
             wait = start + i * dt - time.perf_counter()
             if wait > 0:
                 time.sleep(wait)
@@ -295,8 +295,8 @@ def view_scene(
                 return runner.step(i, targets, live.time)
 
         class Show:
-            def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
-                shown.set_texts((None, None, *_overlay(record, solvers)))
+            def add_frame(self, frame: FrameSamples, data: mujoco.MjData) -> None:
+                shown.set_texts((None, None, *_overlay(frame, solvers)))
                 shown.sync()
 
         _, interrupted = frame_loop(

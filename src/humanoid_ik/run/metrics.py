@@ -1,8 +1,9 @@
-"""What a scene run measured in one frame: one sample per effector, and the columns of
-``metrics.csv``.
+"""What a scene run measured in one frame (:class:`FrameSamples`: one sample per
+effector), and the columns of ``metrics.csv``.
 
 The run's frames are kept by :class:`~humanoid_ik.run.recording.Recording`, the one
-table of a run (``Metrics`` is its former name, kept as a deprecated alias).
+table of a run. Former names kept as deprecated aliases for one release: ``Metrics``
+(now ``Recording``), ``FrameRecord`` (now ``FrameSamples``).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CSV_FIELDS", "EffectorSample", "FrameRecord"]
+__all__ = ["CSV_FIELDS", "EffectorSample", "FrameSamples"]
 
 
 class EffectorSample(NamedTuple):
@@ -58,8 +59,10 @@ class EffectorSample(NamedTuple):
 
 
 @dataclass(frozen=True)
-class FrameRecord:
-    """One frame: its index, time [s] and one sample per effector (scene order)."""
+class FrameSamples:
+    """One frame of a run: its index, time [s] and one sample per effector (scene
+    order). What the frame loop hands its sinks; a
+    :class:`~humanoid_ik.run.recording.Recording` keeps one per frame."""
 
     index: int
     time: float
@@ -105,4 +108,12 @@ def __getattr__(name: str) -> Any:
         from humanoid_ik.run.recording import Recording
 
         return Recording
+    if name == "FrameRecord":
+        warnings.warn(
+            "humanoid_ik.run.metrics.FrameRecord is deprecated; use "
+            "humanoid_ik.run.metrics.FrameSamples",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return FrameSamples
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

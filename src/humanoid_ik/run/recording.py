@@ -1,11 +1,11 @@
-"""The one table of a scene run: every frame's full ``qpos``, its record (one sample per
+"""The one table of a scene run: every frame's full ``qpos``, its samples (one per
 effector) and its targets' orientations.
 
 :class:`Recording` is the runner's frame sink (:meth:`SceneRunner.run
 <humanoid_ik.run.runner.SceneRunner.run>` returns it). Everything a run writes is
 derived from it: ``metrics.csv``/``metrics.json`` (:meth:`Recording.rows`,
 :meth:`Recording.to_dict`), the trajectory files (:meth:`Recording.trajectory`, every
-sample field kept, so a replay's records equal the run's) and the summary.
+sample field kept, so a replay's frames equal the run's) and the summary.
 """
 
 from __future__ import annotations
@@ -25,14 +25,14 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.robot import joint_name
 from humanoid_ik.motion import TargetTrack
-from humanoid_ik.run.metrics import CSV_FIELDS, FrameRecord
+from humanoid_ik.run.metrics import CSV_FIELDS, FrameSamples
 from humanoid_ik.run.trajectory import EffectorTrack, Trajectory, qpos_names
 
 __all__ = ["Recording"]
 
 
 class Recording:
-    """Every frame of a run: its ``qpos``, its record and its targets' orientations.
+    """Every frame of a run: its ``qpos``, its samples and its targets' orientations.
 
     Args:
         scene: the scene that runs.
@@ -43,7 +43,7 @@ class Recording:
             orientation.
 
     Attributes:
-        frames: every frame's record, in order.
+        frames: every frame's samples (:class:`FrameSamples`), in order.
         qpos: every frame's full ``qpos`` ``(nq,)``.
         frame_times: wall time of each frame in the runner's loop [s] (solve,
             ``mj_forward``, measuring and every output taking the frame); not exported.
@@ -63,7 +63,7 @@ class Recording:
         self.model = model
         self.chains = list(chains)
         self.targets = list(targets)
-        self.frames: list[FrameRecord] = []
+        self.frames: list[FrameSamples] = []
         self.qpos: list[NDArray[np.float64]] = []
         self._quats: list[Sequence[NDArray[np.float64] | None]] = []
         self._orientations = [t.orientation for t in self.targets]
@@ -79,15 +79,15 @@ class Recording:
     def __len__(self) -> int:
         return len(self.frames)
 
-    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
-        """Keep frame ``record`` with ``data``'s ``qpos`` and the targets' orientations
+    def add_frame(self, frame: FrameSamples, data: mujoco.MjData) -> None:
+        """Keep ``frame`` with ``data``'s ``qpos`` and the targets' orientations
         (as a sink of the runner's loop)."""
-        self.frames.append(record)
+        self.frames.append(frame)
         self.qpos.append(data.qpos.copy())
         if not self._posed:
             self._quats.append(self._no_quats)
             return
-        t = record.time
+        t = frame.time
         self._quats.append(
             [None if o is None else np.asarray(o.quat_at(t)) for o in self._orientations]
         )

@@ -1,6 +1,6 @@
 """Playing a recorded :class:`~humanoid_ik.run.trajectory.Trajectory` back without solving:
 per frame its ``qpos`` is written into the model's ``MjData``, ``mj_forward`` runs, and
-the frame's record (targets, achieved positions, flags) goes to the sinks through the
+the frame's samples (targets, achieved positions, flags) goes to the sinks through the
 one frame loop, :func:`~humanoid_ik.run.runner.frame_loop`."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 import mujoco
 
 from humanoid_ik.core.models import reset_to_home
-from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.metrics import FrameSamples
 from humanoid_ik.run.runner import FrameSink, frame_loop
 from humanoid_ik.run.trajectory import Trajectory, check_trajectory_model
 
@@ -45,17 +45,17 @@ class TrajectoryPlayer:
         """Frames of the trajectory."""
         return self.trajectory.n_frames
 
-    def step(self, index: int) -> FrameRecord:
+    def step(self, index: int) -> FrameSamples:
         """Frame ``index``: its ``qpos`` in :attr:`data` after ``mj_forward``, and its
-        record."""
+        samples."""
         self.data.qpos[:] = self.trajectory.qpos[index]
         mujoco.mj_forward(self.model, self.data)
-        return self.trajectory.record(index)
+        return self.trajectory.frame_samples(index)
 
     def run(
         self,
         sinks: Sequence[FrameSink] = (),
-        on_frame: Callable[[FrameRecord], None] | None = None,
+        on_frame: Callable[[FrameSamples], None] | None = None,
     ) -> tuple[list[float], bool]:
         """Play every frame to ``sinks``; returns each frame's wall time [s] and whether
         Ctrl-C stopped it early."""

@@ -52,7 +52,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import on_target
 from humanoid_ik.core.types import EffectorGoal, IKResult, Target
 from humanoid_ik.errors import HumanoidIKError, SceneError
-from humanoid_ik.run.metrics import EffectorSample, FrameRecord
+from humanoid_ik.run.metrics import EffectorSample, FrameSamples
 from humanoid_ik.run.recording import Recording
 
 __all__ = [
@@ -74,10 +74,10 @@ class FrameSink(Protocol):
     """Takes each frame of a run, beside :meth:`SceneRunner.run`'s loop (the metrics, the
     renderer...)."""
 
-    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
-        """Take one frame: its ``record`` and the scene's ``data`` at that frame (after
-        ``mj_forward``, or ``mj_kinematics`` when no sink of the run needs more, see
-        :func:`needs_forward`; read it now, the next frame overwrites it)."""
+    def add_frame(self, frame: FrameSamples, data: mujoco.MjData) -> None:
+        """Take one frame: its samples (``frame``) and the scene's ``data`` at that frame
+        (after ``mj_forward``, or ``mj_kinematics`` when no sink of the run needs more,
+        see :func:`needs_forward`; read it now, the next frame overwrites it)."""
 
 
 def needs_forward(sinks: Sequence[object]) -> bool:
@@ -88,14 +88,14 @@ def needs_forward(sinks: Sequence[object]) -> bool:
 
 def frame_loop(
     n: int,
-    step: Callable[[int], FrameRecord],
+    step: Callable[[int], FrameSamples],
     data: mujoco.MjData,
     sinks: Sequence[FrameSink],
-    on_frame: Callable[[FrameRecord], None] | None = None,
+    on_frame: Callable[[FrameSamples], None] | None = None,
     stop: Callable[[], bool] | None = None,
 ) -> tuple[list[float], bool]:
-    """THE frame loop: for ``i`` in ``0 .. n-1``, ``record = step(i)`` (which leaves the
-    frame in ``data``), every sink in order gets ``(record, data)``, then ``on_frame``;
+    """THE frame loop: for ``i`` in ``0 .. n-1``, ``frame = step(i)`` (which leaves the
+    frame in ``data``), every sink in order gets ``(frame, data)``, then ``on_frame``;
     ``stop`` (asked before each frame) ends it early.
 
     Used by :meth:`SceneRunner.run` (``step`` solves), by a replay (``step`` reads a
@@ -111,12 +111,12 @@ def frame_loop(
             if stop is not None and stop():
                 break
             t0 = time.perf_counter()
-            rec = step(i)
+            frame = step(i)
             for sink in sinks:
-                sink.add_frame(rec, data)
+                sink.add_frame(frame, data)
             times.append(time.perf_counter() - t0)
             if on_frame is not None:
-                on_frame(rec)
+                on_frame(frame)
     except KeyboardInterrupt:
         return times, True
     return times, False
@@ -271,7 +271,7 @@ class SceneRunner:
 
     def step(
         self, index: int, targets: Sequence[Target] | None = None, t: float | None = None
-    ) -> FrameRecord:
+    ) -> FrameSamples:
         """Solve and apply frame ``index`` (warm-started from the previous call).
 
         Args:
@@ -313,7 +313,7 @@ class SceneRunner:
             qpos[chains[i].qpos_adr] = res.q
         (mujoco.mj_forward if self.forward else mujoco.mj_kinematics)(m, d)
         samples = map(self._measure, range(len(results)), targets, results, times)  # type: ignore[arg-type]
-        return FrameRecord(index, t, tuple(samples))
+        return FrameSamples(index, t, tuple(samples))
 
     def _measure(self, i: int, target: Target, res: IKResult, dt: float) -> EffectorSample:
         """Effector ``i``'s sample of this frame. Its errors are its result's, measured once
@@ -357,13 +357,13 @@ class SceneRunner:
     def run(
         self,
         frames: int | None = None,
-        on_frame: Callable[[FrameRecord], None] | None = None,
+        on_frame: Callable[[FrameSamples], None] | None = None,
         sinks: Sequence[FrameSink] = (),
     ) -> Recording:
         """Run ``frames`` frames (default: the whole scene) from the home pose: the frame
         loop.
 
-        Per frame: :meth:`step`, then every sink in order gets the record and
+        Per frame: :meth:`step`, then every sink in order gets the frame's samples and
         ``self.data``, then the returned recording (also a sink) and the frame's loop
         time, then ``on_frame``.
 

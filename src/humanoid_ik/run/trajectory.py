@@ -3,7 +3,7 @@ and each effector's samples, as a typed :class:`Trajectory`.
 
 A run's :class:`~humanoid_ik.run.recording.Recording` makes one
 (:meth:`~humanoid_ik.run.recording.Recording.trajectory`); a replay turns its frames
-back into the run's records, nothing lost (:meth:`Trajectory.record`).
+back into the run's frames, nothing lost (:meth:`Trajectory.frame_samples`).
 :func:`check_trajectory_model` says whether a
 trajectory fits a model (same joints in the same ``qpos`` order, same model digest).
 The files (``trajectory.npz``, ``trajectory.csv``) are written and read by
@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from humanoid_ik.config.specs import RenderSpec
 from humanoid_ik.core.robot import joint_name
 from humanoid_ik.errors import TrajectoryFileError
-from humanoid_ik.run.metrics import EffectorSample, FrameRecord
+from humanoid_ik.run.metrics import EffectorSample, FrameSamples
 
 __all__ = [
     "EFFECTOR_KINDS",
@@ -238,11 +238,21 @@ class Trajectory:
             )
         return self.qpos[:, self.qpos_names.index(name)]
 
-    def record(self, index: int) -> FrameRecord:
-        """Frame ``index`` as the runner's :class:`FrameRecord` had it (a file written
+    def frame_samples(self, index: int) -> FrameSamples:
+        """Frame ``index`` as the runner's :class:`FrameSamples` had it (a file written
         before these fields were kept gives NaN, ``None`` and 0 for them)."""
         samples = tuple(_sample(e, index) for e in self.effectors)
-        return FrameRecord(index, float(self.time[index]), samples)
+        return FrameSamples(index, float(self.time[index]), samples)
+
+    def record(self, index: int) -> FrameSamples:
+        """Deprecated (one release): :meth:`frame_samples`, by its former name."""
+        warnings.warn(
+            "humanoid_ik.run.trajectory.Trajectory.record is deprecated; use "
+            "Trajectory.frame_samples",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.frame_samples(index)
 
     def quats(self, index: int) -> list[NDArray[np.float64] | None]:
         """Each effector's target orientation (wxyz) at frame ``index``, or ``None``."""

@@ -2,13 +2,18 @@
 seeds) run as independent jobs on a local process pool or on a Ray cluster, resumably,
 then summarised.
 
-Modules: ``jobs`` (running one job into a record), ``executors`` (local pool, Ray),
+Modules: ``jobs`` (running one job into its result), ``executors`` (local pool, Ray),
 ``ray_head`` (the process that drives a local Ray instance in a process group of its
 own, run as a script), ``summary`` (summary rows, CSV/JSON, plot) and ``resume``
-(:func:`run_sweep`: the job records on disk and what is left to run). The sweep file
+(:func:`run_sweep`: the job results on disk and what is left to run). The sweep file
 itself (:class:`Job`, :class:`Sweep`, :func:`load_sweep`, :func:`parse_sweep`) is read
-by :mod:`humanoid_ik.config.sweep_file` and re-exported here.
+by :mod:`humanoid_ik.config.sweep_file` and re-exported here. ``read_records`` and
+``damaged_records`` are the former names of :func:`read_results` and
+:func:`damaged_results`, kept as deprecated aliases for one release.
 """
+
+import warnings
+from typing import Any
 
 from humanoid_ik.config.sweep_file import Job, Sweep, load_sweep, parse_sweep
 from humanoid_ik.experiments.sweep.executors import import_ray
@@ -16,8 +21,8 @@ from humanoid_ik.experiments.sweep.jobs import COLUMNS, TIMING_COLUMNS, run_job
 from humanoid_ik.experiments.sweep.resume import (
     SweepResult,
     check_out,
-    damaged_records,
-    read_records,
+    damaged_results,
+    read_results,
     run_sweep,
 )
 from humanoid_ik.experiments.sweep.summary import plot_summary, summary_rows, write_summary
@@ -29,14 +34,29 @@ __all__ = [
     "Sweep",
     "SweepResult",
     "check_out",
-    "damaged_records",
+    "damaged_results",
     "import_ray",
     "load_sweep",
     "parse_sweep",
     "plot_summary",
-    "read_records",
+    "read_results",
     "run_job",
     "run_sweep",
     "summary_rows",
     "write_summary",
 ]
+
+_RENAMED = {"damaged_records": "damaged_results", "read_records": "read_results"}
+"""Former names (a job's result was its "record"): old -> new, for one release."""
+
+
+def __getattr__(name: str) -> Any:
+    if name in _RENAMED:
+        new = _RENAMED[name]
+        warnings.warn(
+            f"{__name__}.{name} is deprecated; use {__name__}.{new}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return globals()[new]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

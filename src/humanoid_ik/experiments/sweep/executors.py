@@ -2,15 +2,15 @@
 
 A job is a sweep's :class:`~humanoid_ik.config.sweep_file.Job` run by
 :func:`~humanoid_ik.experiments.sweep.jobs.run_job` unless the caller names another
-``run`` (a picklable module-level function of one picklable job, returning its record)
-with its ``failed(job, exc)`` (the record of a job whose worker died) and the modules
+``run`` (a picklable module-level function of one picklable job, returning its result)
+with its ``failed(job, exc)`` (the result of a job whose worker died) and the modules
 its workers should import once (``preload``): ``retarget FOLDER --workers N`` runs its
 clips so, on the same pool with the same guarantees.
 
-Both take the jobs to run and an ``on_done(job, record)`` callback that the calling
-process runs as each record comes back (in completion order), so results are written by
+Both take the jobs to run and an ``on_done(job, result)`` callback that the calling
+process runs as each result comes back (in completion order), so results are written by
 one process and a Ray cluster needs no shared file system. A worker that dies gives a
-``failed`` record (:func:`~humanoid_ik.experiments.sweep.jobs.failed_record`) instead of
+``failed`` result (:func:`~humanoid_ik.experiments.sweep.jobs.failed_result`) instead of
 stopping the others.
 
 Both make the processes they start end with the calling process, however it ends, with
@@ -43,7 +43,7 @@ from multiprocessing.connection import Connection
 from typing import IO, Any
 
 from humanoid_ik.errors import SweepError
-from humanoid_ik.experiments.sweep.jobs import failed_record, run_job
+from humanoid_ik.experiments.sweep.jobs import failed_result, run_job
 
 __all__ = [
     "MAX_WORKERS",
@@ -60,11 +60,11 @@ __all__ = [
 ]
 
 OnDone = Callable[[Any, dict[str, Any]], None]
-"""``on_done(job, record)``, called in the calling process as each job finishes."""
+"""``on_done(job, result)``, called in the calling process as each job finishes."""
 Run = Callable[[Any], dict[str, Any]]
-"""``run(job) -> record``: what a worker does with one job (picklable: module level)."""
+"""``run(job) -> result``: what a worker does with one job (picklable: module level)."""
 Failed = Callable[[Any, BaseException], dict[str, Any]]
-"""``failed(job, exc) -> record``: the record of a job whose worker died."""
+"""``failed(job, exc) -> result``: the result of a job whose worker died."""
 PRELOAD = (
     "humanoid_ik.experiments.sweep.jobs",
     "humanoid_ik.run.runner",
@@ -117,7 +117,7 @@ def run_local(
     log: str | os.PathLike | None = None,
     *,
     run: Run = run_job,
-    failed: Failed = failed_record,
+    failed: Failed = failed_result,
     preload: Sequence[str] = PRELOAD,
 ) -> None:
     """Run ``jobs`` on ``workers`` local processes (forkserver, see :data:`PRELOAD`).
@@ -132,7 +132,7 @@ def run_local(
             being forked while the sweep is interrupted prints a traceback there, not
             on the caller's terminal); ``None`` leaves them the caller's stderr. Only a
             forkserver started by this call is redirected.
-        run, failed, preload: what a worker runs on a job, the record of a job whose
+        run, failed, preload: what a worker runs on a job, the result of a job whose
             worker died, the modules the forkserver imports (default: a sweep's).
     """
     ctx = mp.get_context("forkserver")
@@ -157,10 +157,10 @@ def run_local(
                     for fut in done:
                         job = pending.pop(fut)
                         try:
-                            rec = fut.result()
+                            result = fut.result()
                         except Exception as exc:  # noqa: BLE001 - a dead worker
-                            rec = failed(job, exc)
-                        on_done(job, rec)
+                            result = failed(job, exc)
+                        on_done(job, result)
             except BaseException:  # Ctrl-C, even while the jobs are being submitted
                 # the workers end now, so the pool breaks and fails every pending job
                 # itself (cancelling them here raced with that: Python 3.11's pool then
@@ -261,7 +261,7 @@ def _init_ray(ray: Any, workers: int | None, address: str) -> None:
 
 RAY_SHUTDOWN_TIMEOUT_S = 60.0
 """How long the process of a local Ray instance may take to shut Ray down after the
-last record before the sweep kills its process group [s]."""
+last result before the sweep kills its process group [s]."""
 _HEAD = os.path.join(os.path.dirname(__file__), "ray_head.py")
 
 
@@ -275,7 +275,7 @@ def _run_ray_local(
 ) -> None:
     """Run ``jobs`` on a local Ray instance of ``workers`` CPUs (default all) that a
     process of its own drives (``ray_head.py``), in a new session and so a process
-    group that this process owns; records come back through a pipe.
+    group that this process owns; results come back through a pipe.
 
     When this process ends, however it ends (SIGKILL included: the operating system
     closes the pipe), that process kills its whole group: Ray's GCS, raylet and agents
@@ -285,7 +285,7 @@ def _run_ray_local(
 
     Raises:
         SweepError: Ray does not start (its one-line reason), or its process ended
-            before the last record.
+            before the last result.
     """
     jobs = list(jobs)
     with tempfile.TemporaryFile() as said:  # what it prints (Ray's notes, a traceback)
@@ -307,13 +307,13 @@ def _drive(
     said: IO[bytes],
     how: tuple[Run, Failed],
 ) -> None:
-    """Send ``jobs`` to the process ``head`` (``ray_head.py``), hand each record it
+    """Send ``jobs`` to the process ``head`` (``ray_head.py``), hand each result it
     sends back to ``on_done``, and end it (see :func:`_run_ray_local`)."""
     assert head.stdin is not None and head.stdout is not None
     try:
         try:
             sent: tuple[Any, ...] = (workers or os.cpu_count() or 1, jobs)
-            if how != (run_job, failed_record):  # ray_head.py runs a sweep's by default
+            if how != (run_job, failed_result):  # ray_head.py runs a sweep's by default
                 sent = (*sent, *how)
             pickle.dump(sent, head.stdin)
             head.stdin.flush()
@@ -329,7 +329,7 @@ def _drive(
                 raise SweepError(
                     None, "", f"the local Ray instance ended before the sweep's last job: {why}"
                 ) from None
-            if message[0] == "record":
+            if message[0] == "result":
                 on_done(jobs[message[1]], message[2])
             elif message[0] == "error":
                 raise SweepError(None, "", f"cannot start a local Ray instance: {message[1]}")
@@ -355,7 +355,7 @@ def run_ray(
     on_done: OnDone,
     *,
     run: Run = run_job,
-    failed: Failed = failed_record,
+    failed: Failed = failed_result,
 ) -> None:
     """Run ``jobs`` as Ray tasks (1 CPU each, no retries).
 
@@ -368,7 +368,7 @@ def run_ray(
             its processes die with this one if it is killed (:func:`_run_ray_local`; where
             process groups are missing, Windows, Ray is started in this process and
             Ray's own fate-sharing applies).
-        on_done: called as each record comes back.
+        on_done: called as each result comes back.
         run, failed: as :func:`run_local`'s.
 
     Raises:
@@ -387,11 +387,11 @@ def ray_dispatch(
     jobs: Sequence[Any],
     on_done: Callable[[int, Any], None],
     run: Run = run_job,
-    failed: Failed = failed_record,
+    failed: Failed = failed_result,
 ) -> None:
     """Every job as a Ray task (one CPU, no retries) of ``run``, ``on_done(index,
-    record)`` as each ends; a task that fails (a dead worker or node) gets ``failed``'s
-    record. Used in the sweep's process and in a local Ray's own (``ray_head.py``)."""
+    result)`` as each ends; a task that fails (a dead worker or node) gets ``failed``'s
+    result. Used in the sweep's process and in a local Ray's own (``ray_head.py``)."""
     task = ray.remote(num_cpus=1, max_retries=0)(run)
     pending = {task.remote(job): i for i, job in enumerate(jobs)}
     while pending:
@@ -399,10 +399,10 @@ def ray_dispatch(
         for ref in done:
             i = pending.pop(ref)
             try:
-                rec = ray.get(ref)
+                result = ray.get(ref)
             except Exception as exc:  # noqa: BLE001 - a dead worker or node
-                rec = failed(jobs[i], exc)
-            on_done(i, rec)
+                result = failed(jobs[i], exc)
+            on_done(i, result)
 
 
 def _run_ray(
@@ -418,7 +418,7 @@ def _run_ray(
         _init_ray(ray, workers, address)
         started = True
     try:
-        ray_dispatch(ray, jobs, lambda i, rec: on_done(jobs[i], rec), *how)
+        ray_dispatch(ray, jobs, lambda i, result: on_done(jobs[i], result), *how)
     finally:
         if started:
             ray.shutdown()

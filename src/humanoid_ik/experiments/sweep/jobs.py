@@ -1,7 +1,7 @@
 """Running one sweep job: a scene job through the runner
 (:func:`~humanoid_ik.run.runner.run_scene`), a target-set job through the benchmark loop
-(:func:`~humanoid_ik.experiments.bench.run_trials`), each into one record (a dict with
-the keys :data:`COLUMNS`).
+(:func:`~humanoid_ik.experiments.bench.run_trials`), each into one result (a dict with
+the keys :data:`COLUMNS`: what ``out/jobs/<id>.json`` holds).
 
 This module is what the executors' workers import (it is the local pool's forkserver
 preload), so it imports what a job needs and nothing for writing summaries.
@@ -13,6 +13,7 @@ import math
 import os
 import time
 import traceback
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -27,7 +28,7 @@ from humanoid_ik.experiments.bench import make_targets, not_reaching, run_trials
 from humanoid_ik.run.runner import run_scene
 from humanoid_ik.solvers import make_solver
 
-__all__ = ["COLUMNS", "TIMING_COLUMNS", "failed_record", "new_record", "run_job"]
+__all__ = ["COLUMNS", "TIMING_COLUMNS", "failed_result", "new_result", "run_job"]
 
 COLUMNS = (
     "id",
@@ -47,7 +48,7 @@ COLUMNS = (
     "median_solve_ms",
     "wall_s",
 )
-"""Columns of a job's record and of the summary CSV, in order."""
+"""Columns of a job's result and of the summary CSV, in order."""
 TIMING_COLUMNS = ("median_solve_ms", "wall_s")
 """Wall-clock columns: the only ones that differ between two runs of the same sweep."""
 
@@ -146,10 +147,11 @@ def _run_scene(job: Job) -> dict[str, Any]:
     }
 
 
-def new_record(job: Job) -> dict[str, Any]:
-    """A record (keys :data:`COLUMNS`) holding the job's parameters, results empty."""
-    record: dict[str, Any] = dict.fromkeys(COLUMNS)
-    record.update(
+def new_result(job: Job) -> dict[str, Any]:
+    """A job result (keys :data:`COLUMNS`) holding the job's parameters, the measured
+    columns empty."""
+    result: dict[str, Any] = dict.fromkeys(COLUMNS)
+    result.update(
         id=job.id,
         kind=job.kind,
         name=job.name,
@@ -158,26 +160,42 @@ def new_record(job: Job) -> dict[str, Any]:
         options=job.options_dict,
         seed=job.seed,
     )
-    return record
+    return result
 
 
 def run_job(job: Job) -> dict[str, Any]:
-    """Run one job and return its record (keys :data:`COLUMNS`). Never raises: an
+    """Run one job and return its result (keys :data:`COLUMNS`). Never raises: an
     exception becomes ``status = "failed"`` with ``error = "Type: message"`` and the
     traceback under ``traceback``."""
-    record = new_record(job)
+    result = new_result(job)
     t0 = time.perf_counter()
     try:
-        record.update(_run_scene(job) if job.kind == "scene" else _run_targets(job))
+        result.update(_run_scene(job) if job.kind == "scene" else _run_targets(job))
     except Exception as exc:  # noqa: BLE001 - a failed job is data, not a crash
-        record.update(status="failed", error=f"{type(exc).__name__}: {exc}")
-        record["traceback"] = traceback.format_exc()
-    record["wall_s"] = time.perf_counter() - t0
-    return record
+        result.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+        result["traceback"] = traceback.format_exc()
+    result["wall_s"] = time.perf_counter() - t0
+    return result
 
 
-def failed_record(job: Job, exc: BaseException) -> dict[str, Any]:
-    """The record of a job whose worker died (the exception came from the executor)."""
-    record = new_record(job)
-    record.update(status="failed", error=f"{type(exc).__name__}: {exc}")
-    return record
+def failed_result(job: Job, exc: BaseException) -> dict[str, Any]:
+    """The result of a job whose worker died (the exception came from the executor)."""
+    result = new_result(job)
+    result.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+    return result
+
+
+_RENAMED = {"failed_record": "failed_result", "new_record": "new_result"}
+"""Former names (a job's result was its "record"): old -> new, for one release."""
+
+
+def __getattr__(name: str) -> Any:
+    if name in _RENAMED:
+        new = _RENAMED[name]
+        warnings.warn(
+            f"{__name__}.{name} is deprecated; use {__name__}.{new}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return globals()[new]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -3,8 +3,8 @@
 :func:`~humanoid_ik.experiments.sweep.executors.run_ray` runs this file as a script, in
 a new session, so a new process group, that the sweep owns. It reads the CPUs and the
 jobs (one pickle) from its stdin, starts Ray (``ray.init``: Ray's GCS, raylet and agents
-join this process's group), runs the jobs as Ray tasks and writes each record back (one
-pickle each: ``("record", index, record)``, then ``("end",)``; ``("error", WHY)`` when
+join this process's group), runs the jobs as Ray tasks and writes each job's result back (one
+pickle each: ``("result", index, result)``, then ``("end",)``; ``("error", WHY)`` when
 Ray does not start). When the sweep ends, however it ends, its end of the stdin pipe
 closes: after ``("end",)`` Ray is shut down gracefully, otherwise (the sweep was killed
 or interrupted) at once; either way this process then kills its whole process group,
@@ -75,7 +75,7 @@ def main() -> int:
         except Exception as exc:  # noqa: BLE001 - any failure to start, in one line
             send("error", _one_line(exc))
             return 1
-        ray_dispatch(ray, jobs, lambda i, rec: send("record", i, rec), *how)
+        ray_dispatch(ray, jobs, lambda i, result: send("result", i, result), *how)
         ended.set()
         send("end")
         ray.shutdown()

@@ -1,8 +1,12 @@
-"""Running a whole sweep, resumably: each finished job's record is a file
-``out/jobs/<id>.json``, so a rerun runs only the jobs without a finished record (new
+"""Running a whole sweep, resumably: each finished job's result is a file
+``out/jobs/<id>.json``, so a rerun runs only the jobs without a finished result (new
 ones, failed ones, ones whose file was deleted or damaged), then writes the summary of
-all. A record file that is not a whole record of its job (cut short, edited, another
-job's) counts as missing: :func:`damaged_records` says which and why.
+all. A result file that is not a whole result of its job (cut short, edited, another
+job's) counts as missing: :func:`damaged_results` says which and why.
+
+``read_records``, ``damaged_records`` and :attr:`SweepResult.records` are the former
+names of :func:`read_results`, :func:`damaged_results` and :attr:`SweepResult.results`,
+kept as deprecated aliases for one release.
 """
 
 from __future__ import annotations
@@ -10,6 +14,7 @@ from __future__ import annotations
 import json
 import os
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,13 +31,13 @@ __all__ = [
     "WORKER_LOG",
     "SweepResult",
     "check_out",
-    "damaged_records",
-    "read_records",
+    "damaged_results",
+    "read_results",
     "run_sweep",
 ]
 
 _RESULTS = "jobs"
-"""The folder under ``out`` of the job records."""
+"""The folder under ``out`` of the job results."""
 WORKER_LOG = "workers.log"
 """The file under ``out`` that receives what the local pool's processes print."""
 SWEEP_FILES = ("summary.csv", "summary.json", "summary.png", "run.json", WORKER_LOG)
@@ -44,14 +49,15 @@ class SweepResult:
     """What a sweep run did.
 
     Attributes:
-        records: every job's record, in grid order.
+        results: every job's result (keys :data:`~humanoid_ik.experiments.sweep.jobs.COLUMNS`),
+            in grid order.
         executed: ids of the jobs run this time.
         cached: ids of the jobs whose result was already there.
         files: the summary CSV, the summary JSON, the plot (if any) and ``run.json``.
         wall_s: the run's wall time [s].
     """
 
-    records: list[dict[str, Any]]
+    results: list[dict[str, Any]]
     executed: list[str]
     cached: list[str]
     files: list[Path]
@@ -59,48 +65,58 @@ class SweepResult:
 
     def counts(self) -> dict[str, int]:
         """Jobs by status (``ok``, ``failed``, ``skipped``, each present even at 0)."""
-        return {"ok": 0, "failed": 0, "skipped": 0} | status_counts(self.records)
+        return {"ok": 0, "failed": 0, "skipped": 0} | status_counts(self.results)
+
+    @property
+    def records(self) -> list[dict[str, Any]]:
+        """Deprecated (one release): :attr:`results`, by its former name."""
+        warnings.warn(
+            "SweepResult.records is deprecated; use SweepResult.results",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.results
 
 
 def _result_path(out: Path, job: Job) -> Path:
-    """Where ``job``'s record is kept under ``out``."""
+    """Where ``job``'s result is kept under ``out``."""
     return out / _RESULTS / f"{job.id}.json"
 
 
 _NUMBERS = COLUMNS[COLUMNS.index("success_rate") :]
-"""Record columns holding a number or ``null``: the results, from ``success_rate`` on."""
+"""Columns holding a number or ``null``: the measured ones, from ``success_rate`` on."""
 
 
-def _problem(rec: Any, job: Job) -> str | None:
-    """Why ``rec`` is not a whole record of ``job`` (``None`` when it is one)."""
-    if not isinstance(rec, dict):
+def _problem(result: Any, job: Job) -> str | None:
+    """Why ``result`` is not a whole result of ``job`` (``None`` when it is one)."""
+    if not isinstance(result, dict):
         return "not a JSON object"
-    missing = [k for k in COLUMNS if k not in rec]
+    missing = [k for k in COLUMNS if k not in result]
     if missing:
         more = ", ..." if len(missing) > 3 else ""
         return f"no {', '.join(missing[:3])}{more}"
-    if rec["status"] not in ("ok", "skipped", "failed"):
-        return f"status {rec['status']!r}"
+    if result["status"] not in ("ok", "skipped", "failed"):
+        return f"status {result['status']!r}"
     mine: dict[str, Any] = {"id": job.id, "kind": job.kind, "name": job.name}
     mine |= {"solver": job.solver, "config": job.config, "options": job.options_dict}
     mine["seed"] = job.seed
-    mine = json.loads(json.dumps(mine))  # as the record file holds them (tuples as lists)
-    wrong = [k for k, v in mine.items() if rec[k] != v]
+    mine = json.loads(json.dumps(mine))  # as the result file holds them (tuples as lists)
+    wrong = [k for k, v in mine.items() if result[k] != v]
     if wrong:
-        return f"{wrong[0]} {rec[wrong[0]]!r} is not the job's"
+        return f"{wrong[0]} {result[wrong[0]]!r} is not the job's"
     for k in _NUMBERS:
-        v = rec[k]
+        v = result[k]
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
             return f"{k} {v!r} is not a number"
-    if rec["samples"] is not None and (
-        isinstance(rec["samples"], bool) or not isinstance(rec["samples"], int)
+    if result["samples"] is not None and (
+        isinstance(result["samples"], bool) or not isinstance(result["samples"], int)
     ):
-        return f"samples {rec['samples']!r} is not an integer"
+        return f"samples {result['samples']!r} is not an integer"
     return None
 
 
 def _scan(out: Path, jobs: Sequence[Job]) -> tuple[dict[str, dict[str, Any]], dict[Path, str]]:
-    """The whole records under ``out`` of the given jobs by id, and the record files that
+    """The whole results under ``out`` of the given jobs by id, and the result files that
     are there but damaged, with the reason."""
     found: dict[str, dict[str, Any]] = {}
     damaged: dict[Path, str] = {}
@@ -114,27 +130,27 @@ def _scan(out: Path, jobs: Sequence[Job]) -> tuple[dict[str, dict[str, Any]], di
             damaged[path] = f"cannot be read: {exc}"
             continue
         try:
-            rec = json.loads(text)
+            result = json.loads(text)
         except ValueError:
             damaged[path] = "not JSON"
             continue
-        why = _problem(rec, job)
+        why = _problem(result, job)
         if why is None:
-            found[job.id] = rec
+            found[job.id] = result
         else:
             damaged[path] = why
     return found, damaged
 
 
-def read_records(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[str, dict[str, Any]]:
-    """The finished records under ``out`` of the given jobs, by id (``ok`` and ``skipped``;
-    a failed job, and one whose record is damaged, is run again)."""
+def read_results(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[str, dict[str, Any]]:
+    """The finished results under ``out`` of the given jobs, by id (``ok`` and ``skipped``;
+    a failed job, and one whose result is damaged, is run again)."""
     found, _ = _scan(Path(out), jobs)
     return {k: r for k, r in found.items() if r["status"] in ("ok", "skipped")}
 
 
-def damaged_records(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[Path, str]:
-    """The record files under ``out`` of the given jobs that are not whole records of
+def damaged_results(out: str | os.PathLike, jobs: Sequence[Job]) -> dict[Path, str]:
+    """The result files under ``out`` of the given jobs that are not whole results of
     their job (unreadable, not JSON, a column missing or of the wrong type, another
     job's), each with the reason; :func:`run_sweep` runs those jobs again."""
     _, damaged = _scan(Path(out), jobs)
@@ -194,7 +210,7 @@ def run_sweep(
     """Run every job of a sweep that has no finished result under ``out`` yet, then write
     the summary.
 
-    Each finished job's record goes to ``out/jobs/<id>.json`` (atomically, written by
+    Each finished job's result goes to ``out/jobs/<id>.json`` (atomically, written by
     this process as results come back, so a Ray cluster needs no shared file system).
     A failed job is recorded with its error and does not stop the others; it runs again
     on the next call.
@@ -207,7 +223,7 @@ def run_sweep(
         ray_address: run on Ray: ``"local"`` starts a local instance, anything else is
             passed to ``ray.init(address=...)`` (e.g. ``"auto"``, ``"ray://host:10001"``).
             A Ray already initialised in this process is used as it is.
-        progress: called ``(done, total, record)`` after each job run now.
+        progress: called ``(done, total, result)`` after each job run now.
         plot: also write ``summary.png``.
 
     Returns:
@@ -226,17 +242,17 @@ def run_sweep(
     if ray_address is not None:
         import_ray(ray_address)
     t0 = time.perf_counter()
-    records = read_records(out, sweep.jobs)
-    cached = [j.id for j in sweep.jobs if j.id in records]
-    todo = [j for j in sweep.jobs if j.id not in records]
+    results = read_results(out, sweep.jobs)
+    cached = [j.id for j in sweep.jobs if j.id in results]
+    todo = [j for j in sweep.jobs if j.id not in results]
     executed: list[str] = []
 
-    def on_done(job: Job, rec: dict[str, Any]) -> None:
-        write_json(_result_path(out, job), rec)
-        records[job.id] = rec
+    def on_done(job: Job, result: dict[str, Any]) -> None:
+        write_json(_result_path(out, job), result)
+        results[job.id] = result
         executed.append(job.id)
         if progress is not None:
-            progress(len(executed), len(todo), rec)
+            progress(len(executed), len(todo), result)
 
     if todo:
         if ray_address is None:
@@ -246,7 +262,7 @@ def run_sweep(
         else:
             run_ray(todo, workers, ray_address, on_done)
     wall = time.perf_counter() - t0
-    ordered = [records[j.id] for j in sweep.jobs]
+    ordered = [results[j.id] for j in sweep.jobs]
     files = write_summary(sweep, ordered, out)
     if plot:
         files.append(plot_summary(ordered, out / "summary.png", sweep.name))
@@ -260,3 +276,19 @@ def run_sweep(
     }
     files.append(write_json(out / "run.json", run_doc))
     return SweepResult(ordered, executed, cached, files, wall)
+
+
+_RENAMED = {"damaged_records": "damaged_results", "read_records": "read_results"}
+"""Former names (a job's result was its "record"): old -> new, for one release."""
+
+
+def __getattr__(name: str) -> Any:
+    if name in _RENAMED:
+        new = _RENAMED[name]
+        warnings.warn(
+            f"{__name__}.{name} is deprecated; use {__name__}.{new}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return globals()[new]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

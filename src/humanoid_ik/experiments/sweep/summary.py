@@ -43,10 +43,10 @@ def percent(share: float | None, spec: str = ".1f") -> str:
     return format(shown, spec)
 
 
-def summary_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """The records as summary rows (keys :data:`COLUMNS`), sorted by kind, name,
+def summary_rows(results: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """The job results as summary rows (keys :data:`COLUMNS`), sorted by kind, name,
     configuration and seed, so the order never depends on the executor."""
-    rows = [{k: rec.get(k) for k in COLUMNS} for rec in records]
+    rows = [{k: r.get(k) for k in COLUMNS} for r in results]
     rows.sort(
         key=lambda r: (
             r["kind"],
@@ -59,16 +59,16 @@ def summary_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return rows
 
 
-def status_counts(records: Sequence[Mapping[str, Any]]) -> dict[str, int]:
-    """How many records have each status, in order of first appearance."""
+def status_counts(results: Sequence[Mapping[str, Any]]) -> dict[str, int]:
+    """How many job results have each status, in order of first appearance."""
     counts: dict[str, int] = {}
-    for r in records:
+    for r in results:
         counts[r["status"]] = counts.get(r["status"], 0) + 1
     return counts
 
 
 def _cell(value: Any) -> Any:
-    """A record value as a CSV cell: ``None`` empty, a dict as JSON, a float exactly."""
+    """A job result's value as a CSV cell: ``None`` empty, a dict as JSON, a float exactly."""
     if value is None:
         return ""
     if isinstance(value, dict):
@@ -79,13 +79,13 @@ def _cell(value: Any) -> Any:
 
 
 def write_summary(
-    sweep: Sweep, records: Sequence[Mapping[str, Any]], out: str | os.PathLike
+    sweep: Sweep, results: Sequence[Mapping[str, Any]], out: str | os.PathLike
 ) -> list[Path]:
     """Write ``summary.csv`` (one row per job) and ``summary.json`` (the sweep, counts
     by status and the same rows) into ``out`` atomically; returns both paths."""
 
     out = Path(out)
-    rows = summary_rows(records)
+    rows = summary_rows(results)
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(COLUMNS), lineterminator="\n")
     w.writeheader()
@@ -107,14 +107,14 @@ def write_summary(
 
 
 def plot_summary(
-    records: Sequence[Mapping[str, Any]], path: str | os.PathLike, title: str = ""
+    results: Sequence[Mapping[str, Any]], path: str | os.PathLike, title: str = ""
 ) -> Path:
     """Three panels comparing solver configurations on every scene and target set:
     success rate, median time per solve [ms] and worst error [m] (means over seeds;
     failed and skipped jobs are left out). Written atomically as PNG; returns the path."""
     from matplotlib.figure import Figure  # no pyplot: the caller's backend is left alone
 
-    rows = [r for r in summary_rows(records) if r["status"] == "ok"]
+    rows = [r for r in summary_rows(results) if r["status"] == "ok"]
     sets = sorted({(r["kind"], r["name"]) for r in rows})
     configs = sorted({r["config"] for r in rows})
     panels = (

@@ -27,7 +27,7 @@ from humanoid_ik.core.models import model_cameras
 from humanoid_ik.errors import RenderError
 from humanoid_ik.motion import TargetTrack
 from humanoid_ik.outputs.render.backend import open_renderer
-from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.metrics import FrameSamples
 
 __all__ = [
     "COLORS",
@@ -287,17 +287,17 @@ class FrameRenderer:
         self,
         scene: mujoco.MjvScene,
         data: mujoco.MjData,
-        record: FrameRecord,
+        frame: FrameSamples,
         quats: Sequence[NDArray[np.float64] | None] = (),
     ) -> None:
-        """Add the markers, trails and cues of ``record`` to ``scene`` (``quats``: each
+        """Add the markers, trails and cues of ``frame`` to ``scene`` (``quats``: each
         effector's target orientation, wxyz, or ``None``)."""
-        while len(self._trails) < len(record.samples):
+        while len(self._trails) < len(frame.samples):
             self._trails.append(deque(maxlen=max(1, self.trail)))
         # a target a hand reaches for is drawn (and trailed) once, for the hand
-        reached = {s.target_name for s in record.samples if s.task == "reach"}
+        reached = {s.target_name for s in frame.samples if s.task == "reach"}
         drawn: set[str] = set()
-        for k, s in enumerate(record.samples):
+        for k, s in enumerate(frame.samples):
             trail = self._trails[k]
             shared = s.task == "look_at" and s.target_name in reached
             if self.trail > 0 and not shared:
@@ -323,7 +323,7 @@ class FrameRenderer:
             elif not s.reachable:
                 self._segment(scene, site, s.target, 2.5, COLORS["gap"])
         # pose targets: their axes (x red, y green, z blue), 9 cm long
-        for k, s in enumerate(record.samples):
+        for k, s in enumerate(frame.samples):
             quat = quats[k] if k < len(quats) else None
             if quat is None:
                 continue
@@ -392,20 +392,20 @@ class FrameRenderer:
     def render(
         self,
         data: mujoco.MjData,
-        record: FrameRecord,
+        frame: FrameSamples,
         quats: Sequence[NDArray[np.float64] | None] = (),
     ) -> NDArray[np.uint8]:
-        """One frame ``(height, width, 3)`` of ``data`` with ``record`` drawn in.
+        """One frame ``(height, width, 3)`` of ``data`` with ``frame`` drawn in.
 
         Args:
             data: the scene's data after ``mj_forward``.
-            record: the frame's metrics (targets, achieved positions, flags).
+            frame: the frame's samples (targets, achieved positions, flags).
             quats: each effector's target orientation (wxyz) or ``None``.
         """
         r = self.renderer
         r.update_scene(data, camera=self.camera_id)
         self._hidden = []
-        self.decorate(r.scene, data, record, quats)
+        self.decorate(r.scene, data, frame, quats)
         image = r.render()
         self._paint_hidden(image)
         return image
@@ -415,21 +415,21 @@ class FrameRenderer:
 class ImageSink(Protocol):
     """Takes each rendered frame (the video, the stills, the GIF)."""
 
-    def add_image(self, record: FrameRecord, image: NDArray[np.uint8]) -> None:
-        """Take frame ``record``'s picture ``(height, width, 3)`` (``image`` is not reused
+    def add_image(self, frame: FrameSamples, image: NDArray[np.uint8]) -> None:
+        """Take ``frame``'s picture ``(height, width, 3)`` (``image`` is not reused
         by the caller; keep it as is)."""
 
 
-Quats = Callable[[FrameRecord], Sequence[NDArray[np.float64] | None]]
+Quats = Callable[[FrameSamples], Sequence[NDArray[np.float64] | None]]
 """Each effector's target orientation (wxyz) or ``None`` at a frame."""
 
 
 def track_quats(targets: Sequence[TargetTrack]) -> Quats:
     """The target orientations of a scene's tracks at a frame's time."""
 
-    def quats(record: FrameRecord) -> list[NDArray[np.float64] | None]:
+    def quats(frame: FrameSamples) -> list[NDArray[np.float64] | None]:
         return [
-            None if trk.orientation is None else trk.orientation.quat_at(record.time)
+            None if trk.orientation is None else trk.orientation.quat_at(frame.time)
             for trk in targets
         ]
 
@@ -467,8 +467,8 @@ class Film:
         """A staged film runs ``mj_forward`` on its own copy; else the run's data must
         be forwarded (cameras, lights)."""
 
-    def add_frame(self, record: FrameRecord, data: mujoco.MjData) -> None:
-        """Render frame ``record`` of ``data`` and hand it to every image sink."""
+    def add_frame(self, frame: FrameSamples, data: mujoco.MjData) -> None:
+        """Render ``frame`` of ``data`` and hand it to every image sink."""
         view = self._view
         if view is not None:  # the run's state in the staged model
             view.qpos[:] = data.qpos
@@ -476,6 +476,6 @@ class Film:
             view.mocap_quat[:] = data.mocap_quat
             mujoco.mj_forward(self.renderer.model, view)
             data = view
-        image = self.renderer.render(data, record, self.quats(record))
+        image = self.renderer.render(data, frame, self.quats(frame))
         for sink in self.images:
-            sink.add_image(record, image)
+            sink.add_image(frame, image)

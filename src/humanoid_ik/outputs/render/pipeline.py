@@ -28,14 +28,6 @@ from humanoid_ik.core.mujoco_warnings import mujoco_warnings
 from humanoid_ik.core.names import check_name
 from humanoid_ik.errors import MotionError, RenderError, TrajectoryFileError
 from humanoid_ik.outputs.atomic import check_not_theirs, staged_outputs
-from humanoid_ik.outputs.record import (
-    RUN_FILES,
-    check_output_dir,
-    progress_reporter,
-    relocated,
-    scene_output_dir,
-    write_metrics,
-)
 from humanoid_ik.outputs.render.backend import Backend, select_backend
 from humanoid_ik.outputs.render.drawing import (
     Film,
@@ -47,6 +39,14 @@ from humanoid_ik.outputs.render.drawing import (
 from humanoid_ik.outputs.render.plots import plot_metrics
 from humanoid_ik.outputs.render.stills import GifFrames, Stills, sheet_indices, snapshot_plan
 from humanoid_ik.outputs.render.video import VideoWriter
+from humanoid_ik.outputs.run_files import (
+    RUN_FILES,
+    check_output_dir,
+    progress_reporter,
+    relocated,
+    scene_output_dir,
+    write_metrics,
+)
 from humanoid_ik.outputs.stage import trajectory_chains, trajectory_stage
 from humanoid_ik.outputs.trajectory import write_trajectory
 from humanoid_ik.run.recording import Recording
@@ -268,7 +268,7 @@ def render_scene(
                 stage,
                 scene.name,
                 video,
-                lambda record: recorded.quats(record.index),
+                lambda frame: recorded.quats(frame.index),
                 lambda film: loops.append(player.run([film], report)),
                 marker,
             )
@@ -431,7 +431,7 @@ def film_trajectory(
         folder,
         trajectory.scene if name is None else name,
         video,
-        lambda record: trajectory.quats(record.index),
+        lambda frame: trajectory.quats(frame.index),
         run,
         marker_radius(trajectory_chains(model, trajectory, task="reach")),
         renderer,

@@ -42,7 +42,7 @@ from humanoid_ik.outputs.render.drawing import (
 )
 from humanoid_ik.outputs.render.pipeline import FilmOutputs, film_trajectory
 from humanoid_ik.outputs.stage import FILL, trajectory_stage
-from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.metrics import FrameSamples
 from humanoid_ik.run.trajectory import Trajectory
 
 __all__ = [
@@ -218,7 +218,7 @@ class SkeletonRenderer(FrameRenderer):
 
     Args:
         model, width, height, camera, trail, marker: as ``FrameRenderer``.
-        skeleton: world positions ``(F, J, 3)`` [m]; frame ``record.index`` is drawn.
+        skeleton: world positions ``(F, J, 3)`` [m]; frame ``frame.index`` is drawn.
         parents: each joint's parent ``(J,)`` (``-1`` for the root).
         radius: a bone's radius [m].
         rgba: its colour.
@@ -247,12 +247,12 @@ class SkeletonRenderer(FrameRenderer):
         self,
         scene: mujoco.MjvScene,
         data: mujoco.MjData,
-        record: FrameRecord,
+        frame: FrameSamples,
         quats: Sequence[NDArray[np.float64] | None] = (),
     ) -> None:
-        """The markers, trails and cues, then the skeleton of frame ``record.index``."""
-        super().decorate(scene, data, record, quats)
-        X = self.skeleton[min(record.index, len(self.skeleton) - 1)]
+        """The markers, trails and cues, then the skeleton of frame ``frame.index``."""
+        super().decorate(scene, data, frame, quats)
+        X = self.skeleton[min(frame.index, len(self.skeleton) - 1)]
         eye = np.eye(3).reshape(9)
         r = self.radius
         for a, b in self.bones:

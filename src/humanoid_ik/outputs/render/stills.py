@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from humanoid_ik.outputs.atomic import atomic_path
 from humanoid_ik.outputs.render.drawing import COLORS, TRAIL_COLORS
-from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.metrics import FrameSamples
 
 __all__ = [
     "GIF_MAX_FPS",
@@ -172,10 +172,10 @@ class Stills:
         self._wanted = set(self.snapshots) | set(self.sheet)
         self.kept: dict[int, tuple[float, NDArray[np.uint8]]] = {}
 
-    def add_image(self, record: FrameRecord, image: NDArray[np.uint8]) -> None:
+    def add_image(self, frame: FrameSamples, image: NDArray[np.uint8]) -> None:
         """Keep ``image`` when its frame is a snapshot or on the sheet."""
-        if record.index in self._wanted:
-            self.kept[record.index] = (record.time, image)
+        if frame.index in self._wanted:
+            self.kept[frame.index] = (frame.time, image)
 
     def write(self, folder: Path) -> tuple[tuple[Path, ...], Path | None]:
         """Write ``frame_NNNN.png`` for each snapshot rendered and ``contact_sheet.png``.
@@ -211,9 +211,9 @@ class GifFrames:
         self.frame_ms = round(1000 * self.step / fps)
         self.frames: list[NDArray[np.uint8]] = []
 
-    def add_image(self, record: FrameRecord, image: NDArray[np.uint8]) -> None:
+    def add_image(self, frame: FrameSamples, image: NDArray[np.uint8]) -> None:
         """Keep ``image`` on every ``step``-th frame."""
-        if record.index % self.step == 0:
+        if frame.index % self.step == 0:
             self.frames.append(image)
 
     def write(self, path: Path) -> Path | None:

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from humanoid_ik.errors import RenderError
 from humanoid_ik.outputs.atomic import atomic_path
-from humanoid_ik.run.metrics import FrameRecord
+from humanoid_ik.run.metrics import FrameSamples
 
 __all__ = ["VideoWriter", "mp4_complete"]
 
@@ -122,8 +122,8 @@ class VideoWriter:
         self._queue.put(np.ascontiguousarray(frame).tobytes())
         self.frames += 1
 
-    def add_image(self, record: FrameRecord, image: NDArray[np.uint8]) -> None:
-        """Queue frame ``record``'s picture (as an image sink of the film)."""
+    def add_image(self, frame: FrameSamples, image: NDArray[np.uint8]) -> None:
+        """Queue ``frame``'s picture (as an image sink of the film)."""
         self.write(image)
 
     def close(self, abort: bool = False) -> Path | None:
