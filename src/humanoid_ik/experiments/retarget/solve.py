@@ -15,7 +15,9 @@ Per arm, with ``solver="auto"`` (the exact solvers where ``auto`` would take the
   three-hinge shoulder's twist, that put the elbow in the pole's plane);
 - otherwise ``lm``, after :data:`ELBOW_STEPS` null-space steps that turn the elbow
   towards the human's while tracking the hand (:func:`~.elbow.elbow_steps`, weighted by
-  the elbow's pull; the first frame takes :data:`FIRST_STEPS`).
+  the elbow's pull; the first frame takes :data:`FIRST_STEPS`), started from the arm's
+  path tracked over the clip without the speed limits (:func:`~.tracks.track_path`), so
+  that after a frame the limits cut the arm returns to the path's branch.
 
 A pose the arm cannot reach (outside the ranges) is solved again for the position
 alone, with ``lm`` from that answer, so the hand stays on its path and only the
@@ -52,6 +54,7 @@ from humanoid_ik.experiments.retarget.plan import Plan, plan_swivels
 from humanoid_ik.experiments.retarget.robot import RobotArm, RobotSide
 from humanoid_ik.experiments.retarget.speed import STEPS, bounded_solve
 from humanoid_ik.experiments.retarget.targets import STRAIGHT, Targets, rest_offset
+from humanoid_ik.experiments.retarget.tracks import track_path
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.elbow import arm_points
 from humanoid_ik.solvers.analytic.two_link import TwoLink
@@ -74,6 +77,10 @@ SPEED_TRIES = 3
 """Tries of the elbow's pull (halved each time) within the speed limits."""
 SWIVEL_STEPS = (0.0, -0.05, 0.05, -0.15, 0.15, -0.4, 0.4, -0.8, 0.8)
 """Swivels [rad] from the current one that ``closed_form`` tries next."""
+POSITION_ONLY = "+lm(position)"
+"""What an arm's answer says (``<side>_solver``) when its pose is out of reach and
+``lm`` solved the position alone: it is then judged, and cut to the speed limits, by
+its position."""
 GAZE_TOL = 1e-4
 """``look_at``'s angle tolerance [rad]."""
 
@@ -130,6 +137,8 @@ class Retargeter:
         self._qp: Any = None
         self.plan: dict[str, Plan] = {}
         """The plan of each ``closed_form`` arm (:mod:`.plan`)."""
+        self.tracks: dict[str, NDArray] = {}
+        """The tracked path ``(F, n)`` of each ``lm`` arm (:mod:`.tracks`)."""
         self.q = {s: a.chain.clip(a.chain.q_home) for s, a in self.arms.items()}
         if self.gaze_on:
             assert robot.head is not None
@@ -182,6 +191,8 @@ class Retargeter:
             self.q[side] = q
             if self.method[side] == "closed_form" and arm.pose:
                 self.plan[side] = plan_swivels(arm, t, self.dt, q)
+            elif self.method[side] == "lm" and self.mode == "auto":
+                self.tracks[side] = track_path(arm, t, q, ELBOW_STEPS)
 
     # ------------------------------------------------------------------ one frame
     def solve(self, f: int) -> FrameSolve:
@@ -234,7 +245,9 @@ class Retargeter:
         def keep(res: IKResult, how: str) -> bool:
             nonlocal best
             ratio = float(np.max(np.abs(res.q - q0) / step)) if f > 0 else 0.0
-            err = res.position_error + 0.1 * (res.orientation_error or 0.0)
+            err = res.position_error
+            if POSITION_ONLY not in how:  # an unreachable pose is judged by its position
+                err += 0.1 * (res.orientation_error or 0.0)
             score = ratio + (1e3 if err > 1e-3 else 0.0)
             if best is None or score < best[0]:
                 best = (score, res, how)
@@ -251,6 +264,14 @@ class Retargeter:
                 # keeps the arm on the plan's branches (the slower answers of the tries
                 # below are on the previous frame's, where the plan may not go on)
                 return self._bounded(side, arm, f, q0, (res.q,)), "closed_form+bounded"
+        if side in self.tracks:
+            res, how = self._arm_once(side, arm, f, self.tracks[side][f], w)
+            if keep(res, how):
+                return res, how
+            if f > 0 and res.position_error <= 1e-3:
+                # too fast: inside the speed box towards the planned branch
+                pose = POSITION_ONLY not in how
+                return self._bounded(side, arm, f, q0, (res.q,), pose), how + "+bounded"
         for k in range(SPEED_TRIES if w > 0 else 0):
             if keep(*self._arm_once(side, arm, f, q0, w * 0.5**k)):
                 return best[1], best[2]  # type: ignore[index]
@@ -269,18 +290,25 @@ class Retargeter:
         res, how = best[1], best[2]
         if f == 0:
             return res, how
-        return self._bounded(side, arm, f, q0, (res.q, q0)), how + "+bounded"
+        pose = POSITION_ONLY not in how
+        return self._bounded(side, arm, f, q0, (res.q, q0), pose), how + "+bounded"
 
     def _bounded(
-        self, side: str, arm: RobotArm, f: int, q0: NDArray, starts: tuple[NDArray, ...]
+        self,
+        side: str,
+        arm: RobotArm,
+        f: int,
+        q0: NDArray,
+        starts: tuple[NDArray, ...],
+        pose: bool = True,
     ) -> IKResult:
         """The hand's position first inside the speed box around ``q0``
         (:func:`~.speed.bounded_solve`) from each of ``starts`` cut into the box; the
-        best of them."""
+        best of them. ``pose=False`` (the pose is out of reach): the position alone."""
         c, t = arm.chain, self.targets.arms[side]
         step = arm.speed * self.dt
         lo, hi = np.maximum(c.lower, q0 - step), np.minimum(c.upper, q0 + step)
-        R = t.rotation(f) if arm.pose else None
+        R = t.rotation(f) if arm.pose and pose else None
         p = t.position[f]
         best = min((bounded_solve(c, s, lo, hi, p, R) for s in starts), key=lambda r: r[1])
         c.set_q(best[0])
@@ -322,7 +350,7 @@ class Retargeter:
             pos = self._lm.solve(c, Target(tgt.position), res.q)
             if pos.position_error < res.position_error:
                 res = pos.with_details(pose="position only: the pose is out of reach")
-                how += "+lm(position)"
+                how += POSITION_ONLY
         return res, how
 
     # ------------------------------------------------------------------ limits
