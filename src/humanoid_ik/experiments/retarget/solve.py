@@ -30,8 +30,9 @@ QP (``UpperBodyIK`` with those pairs, warm from the previous frame) and cut to t
 speed limits again.
 
 With ``solver="mink"`` every frame is the QP's: ``UpperBodyIK`` (hands, gaze, the
-derived collision pairs), iterated to convergence from the previous frame, then cut to
-the speed limits; it has no elbow task (the elbow follows the warm start).
+derived collision pairs, and each bent human elbow as its arm's elbow pole: the QP's
+low-cost elbow task), iterated to convergence from the previous frame, then cut to the
+speed limits.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ from humanoid_ik.experiments.retarget.elbow import elbow_error, elbow_steps, pol
 from humanoid_ik.experiments.retarget.plan import Plan, plan_swivels
 from humanoid_ik.experiments.retarget.robot import RobotArm, RobotSide
 from humanoid_ik.experiments.retarget.speed import STEPS, bounded_solve
-from humanoid_ik.experiments.retarget.targets import STRAIGHT, Targets, rest_offset
+from humanoid_ik.experiments.retarget.targets import BENT, STRAIGHT, Targets, rest_offset
 from humanoid_ik.experiments.retarget.tracks import track_path
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.elbow import arm_points
@@ -403,9 +404,13 @@ class Retargeter:
         for name, c in chains.items():
             qpos[c.qpos_adr] = prev[name]
         ik.set_q(qpos)
-        goals: dict[str, Any] = {
-            c.ee_name: self.target(s, f) for s, c in chains.items() if s != "head"
-        }
+        goals: dict[str, Any] = {}
+        for s, c in chains.items():
+            if s != "head":
+                t, tgt = self.targets.arms[s], self.target(s, f)
+                if t.bend[f] > BENT:  # the elbow task: the human elbow as its pole
+                    tgt = Target(tgt.position, tgt.quat, pole=pole_for(c, t.elbow[f]))
+                goals[c.ee_name] = tgt
         if self.gaze_on:
             assert self.targets.gaze is not None and self.robot.head is not None
             goals[self.robot.head.ee_name] = self.targets.gaze[f]
