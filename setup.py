@@ -35,7 +35,13 @@ Finding ``libmujoco`` at run time (Linux and macOS):
   absolute folder of the environment's MuJoCo (``pip install --no-build-isolation -e
   .``); built in pip's temporary build environment it relies on the import above.
 
-GCC and Clang compile it with ``-O2 -ffp-contract=off`` (no fused multiply-add: the
+The ``subproblem`` module: the exact IK of 6-hinge arms by Paden-Kahan subproblems,
+``humanoid_ik.solvers.analytic.subproblem._subproblem``, compiled in the same build from
+``src/humanoid_ik/solvers/analytic/subproblem/``: ``_subproblem.c`` (the binding),
+``families.c`` and ``subproblems.c`` (the arithmetic, ``subproblems.h``). It needs only
+Python's headers and doubles: no MuJoCo headers, library or rpath.
+
+GCC and Clang compile both with ``-O2 -ffp-contract=off`` (no fused multiply-add: the
 same rounding on every machine); other compilers (MSVC) keep their own flags.
 """
 
@@ -123,11 +129,14 @@ class BuildKernel(build_ext):
     rpath and the determinism flags, and turns a missing compiler into one line."""
 
     def build_extension(self, ext: Extension) -> None:
+        if ext.name == SUBPROBLEM.name:  # Python's headers only
+            self.compile_flags(ext)
+            self.build_or_explain(ext)
+            return
         mj = mujoco_dir()
         lib = mujoco_library(mj)
         assert lib is not None
         ext.include_dirs = [*ext.include_dirs, str(mj / "include")]
-        unix = self.compiler.compiler_type in ("unix", "mingw32", "cygwin")
         if sys.platform == "win32":
             ext.library_dirs = [*ext.library_dirs, str(mj)]
             ext.libraries = [*ext.libraries, "mujoco"]
@@ -138,8 +147,16 @@ class BuildKernel(build_ext):
             if (getattr(self, "editable_mode", False) or self.inplace) and lasting(mj):
                 rpaths.append(str(mj))  # the extension stays in src/
             ext.extra_link_args = [*ext.extra_link_args, *(f"-Wl,-rpath,{r}" for r in rpaths)]
-        if unix:
+        self.compile_flags(ext)
+        self.build_or_explain(ext)
+
+    def compile_flags(self, ext: Extension) -> None:
+        """The determinism flags on GCC and Clang (see the module docstring)."""
+        if self.compiler.compiler_type in ("unix", "mingw32", "cygwin"):
             ext.extra_compile_args = [*ext.extra_compile_args, "-O2", "-ffp-contract=off"]
+
+    def build_or_explain(self, ext: Extension) -> None:
+        """Build ``ext``; a compiler that does not work stops the build with one line."""
         try:
             super().build_extension(ext)
         except (CCompilerError, ExecError, PlatformError, OSError) as exc:
@@ -167,7 +184,14 @@ LM_KERNEL = Extension(
     sources=["src/humanoid_ik/solvers/jacobian/_lm_kernel.c"],
 )
 
+SUBPROBLEM_DIR = "src/humanoid_ik/solvers/analytic/subproblem"
+SUBPROBLEM = Extension(
+    "humanoid_ik.solvers.analytic.subproblem._subproblem",
+    sources=[f"{SUBPROBLEM_DIR}/{f}" for f in ("_subproblem.c", "families.c", "subproblems.c")],
+    depends=[f"{SUBPROBLEM_DIR}/subproblems.h"],
+)
+
 setup(
     cmdclass={"build_py": BuildPyWithBundled, "build_ext": BuildKernel},
-    ext_modules=[LM_KERNEL],
+    ext_modules=[LM_KERNEL, SUBPROBLEM],
 )

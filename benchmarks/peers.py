@@ -5,8 +5,9 @@ in-range joint vectors (``experiments.bench.make_targets``, as ``humanoid-ik ben
 every solve from the chain's ``home`` pose, solved by:
 
 - ours, by registry name: ``closed_form``, ``two_link``, ``dls``, ``lm``, ``auto``,
-  ``mink`` (those registered in ``SOLVERS`` and applicable to the chain and task), each
-  solver object made and prepared once; and ``solve_auto``, the convenience call
+  ``mink`` (and ``subproblem`` when ``--ours`` names it; those registered in
+  ``SOLVERS`` and applicable to the chain and task), each solver object made and
+  prepared once; and ``solve_auto``, the convenience call
   ``solve(chain, target, "auto", q0=start)`` on every target;
 - TRAC-IK (``pytracik``) on a URDF of the chain (``outputs/urdf.py``), with its
   default 5 ms timeout and with 50 ms (pose targets only: pytracik has no
@@ -93,6 +94,9 @@ DM_PYTHON = HERE / ".venv-dm" / "bin" / "python"
 OURS = ("closed_form", "two_link", "dls", "lm", "auto", "mink", "solve_auto")
 """Our solvers in the table, those of them that are registered (``solve_auto``: the
 ``solve()`` call with ``"auto"``)."""
+MORE_OURS = ("subproblem",)
+"""Ours that ``--ours`` also takes, not in the default table: ``subproblem`` applies to
+6-hinge arms only (UR5, Kinova), a row of its reason on every other arm."""
 PEERS = (
     "trac_ik_5ms",
     "trac_ik_50ms",
@@ -774,7 +778,9 @@ def main(argv: list[str] | None = None) -> int:
         "--models", default=",".join(ARMS), help=f"comma-separated, of: {', '.join(ARMS)}"
     )
     p.add_argument("--tasks", default=",".join(TASKS), help="position,pose")
-    p.add_argument("--ours", default=",".join(OURS), help=f"comma-separated, of: {', '.join(OURS)}")
+    p.add_argument(
+        "--ours", default=",".join(OURS), help=f"comma-separated, of: {', '.join(OURS + MORE_OURS)}"
+    )
     p.add_argument(
         "--peers", default=",".join(PEERS), help=f"comma-separated, of: {', '.join(PEERS)}"
     )
@@ -785,7 +791,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     models = _names(p, "model", args.models, list(ARMS))
     tasks = _names(p, "task", args.tasks, TASKS)
-    ours = _names(p, "solver", args.ours, OURS)
+    ours = _names(p, "solver", args.ours, OURS + MORE_OURS)
     peers = _names(p, "peer", args.peers, PEERS)
     try:
         seeds = [int(s) for s in args.seeds.split(",")]

@@ -154,21 +154,58 @@ def test_scene_default_solver_is_auto():
 
 
 def test_auto_retries_a_pose_target_lm_misses_near_ur5s_straight_elbow():
-    """UR5 with the elbow nearly straight: lm's 21 starts miss this pose target (0.35 mm
-    off); auto's second lm try, from further starts of another seed, reaches it."""
-    from humanoid_ik.core.rotations import mat_to_quat
+    """UR5 with the elbow nearly straight and its elbow axis tilted by 1 mrad (no
+    exact solver applies, so auto runs lm): lm's 21 starts miss this pose target
+    (0.35 mm off); auto's second lm try, from further starts of another seed, reaches
+    it. On the real UR5 auto runs subproblem, which reaches it in one exact pass."""
+    import copy
+
+    from humanoid_ik.core.models import load_model
     from humanoid_ik.solvers.jacobian.lm import LM
     from tests.robots import robot_file
 
-    chain = Chain(robot_file("ur5"), body="ee_link")
+    model = copy.deepcopy(load_model(str(robot_file("ur5"))))
+    elbow = model.joint("elbow_joint").id
+    axis = model.jnt_axis[elbow] + [0.0, 0.0, 1e-3]
+    model.jnt_axis[elbow] = axis / np.linalg.norm(axis)
     q = np.array([0.919, 3.6121, 0.0146, -2.2708, -1.5183, 5.0194])
-    chain.set_q(q)
-    target = Target(chain.position.copy(), mat_to_quat(chain.rotation))
-    first = LM().solve(chain, target, chain.q_home)
-    assert not first.converged and first.position_error > 1e-4
-    res = Auto().solve(chain, target, chain.q_home)
-    assert res.converged and res.details["auto"] == ("lm", "lm")
-    assert res.position_error <= 1e-4 and chain.within_limits(res.q)
+    for tilted in (True, False):
+        chain = Chain(model if tilted else robot_file("ur5"), body="ee_link")
+        chain.set_q(q)
+        target = Target(chain.position.copy(), mat_to_quat(chain.rotation))
+        first = LM().solve(chain, target, chain.q_home)
+        assert not first.converged and first.position_error > 1e-4
+        res = Auto().solve(chain, target, chain.q_home)
+        assert res.converged and res.details["auto"] == (
+            ("lm", "lm") if tilted else ("subproblem",)
+        )
+        assert res.position_error <= 1e-4 and chain.within_limits(res.q)
+
+
+@pytest.mark.parametrize("name", ["ur5", "kinova"])
+def test_ur5_and_kinova_pose_targets_get_subproblem(name):
+    """UR5 (three parallel axes) and Kinova (a spherical wrist): pose targets go to
+    subproblem, exact and measured faster than lm there (benchmarks/peers.py); position
+    targets to lm. Every answer is on target inside the ranges and names its solver."""
+    import warnings
+
+    from tests.robots import robot_file
+
+    body = {"ur5": "ee_link", "kinova": "j2s6s200_end_effector"}[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # Kinova's home pose outside its ranges
+        c = Chain(robot_file(name), body=body)
+    auto = make_solver("auto")
+    assert auto.choice(c, True).name == "subproblem" and auto.choice(c, False).name == "lm"
+    family = "three parallel axes" if name == "ur5" else "spherical wrist"
+    assert auto.reason(c, True).startswith(f"6 hinges, {family}") and auto.reason(c, True).endswith(
+        ": exact"
+    )
+    for tgt in make_targets(c, 10, seed=2, pose=True):
+        res = auto.solve(c, tgt, c.q_home)
+        assert res.converged and res.solver == "subproblem"
+        assert res.details["auto"] == ("subproblem",) and c.within_limits(res.q, tol=0.0)
+        assert res.position_error < 1e-9
 
 
 def test_solve_by_name_reuses_one_solver_object_per_name_and_options():

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from humanoid_ik import Chain
 from humanoid_ik.cli import main
 from humanoid_ik.config.scene import (
     RenderSpec,
@@ -103,7 +104,8 @@ def test_bundled_scenes_cover_the_issue():
     assert interps == {"linear", "smooth"}
     cameras = {s.render.camera for s in scenes.values()}
     assert {"front", "side", "top"} <= cameras
-    reaching = [n for n, cls in SOLVERS.items() if cls.reaches]
+    arm = Chain()  # the bundled humanoid's right arm: 7 hinges (subproblem's are 6)
+    reaching = [n for n, cls in SOLVERS.items() if cls.reaches and cls().applicable(arm) is None]
     paths = set()
     for name in reaching:
         sc = scenes[f"compare_{name}"]

@@ -474,6 +474,8 @@ def test_a_start_that_is_not_real_numbers_is_refused(solver_name, q0, got):
     reals, a complex one with only a warning) are one TargetError line, for every solver;
     so are the wrong length and NaN. The robot state is left as it was."""
     chain = Chain()
+    if make_solver(solver_name).applicable(chain) is not None:  # subproblem: 6 hinges
+        pytest.skip(f"{solver_name} does not solve the bundled arm's position targets")
     before = chain.data.qpos.copy()
     with pytest.raises(TargetError) as info:
         solve(chain, [0.3, -0.25, 1.15], solver_name, q0=q0)

@@ -55,6 +55,7 @@ from humanoid_ik.experiments.limb_report import (
     pair_lines,
 )
 from humanoid_ik.solvers import SOLVERS
+from humanoid_ik.solvers.analytic.subproblem import subproblem_cache
 
 __all__ = [
     "EffectorInfo",
@@ -132,6 +133,8 @@ class EffectorInfo:
         reach: the chain's sampled reach [m] from its first joint
             (:meth:`~humanoid_ik.core.chain.Chain.reach`, :data:`REACH_METHOD`).
         base: the chain's first joint anchor ``(3,)`` [m] at the home pose.
+        family: the chain's family for ``subproblem``'s exact pose IK (a spherical
+            wrist, three parallel axes: ``docs/subproblem.md``), ``""`` where none applies.
     """
 
     kind: str
@@ -140,6 +143,7 @@ class EffectorInfo:
     solvers: dict[str, str | None] = field(default_factory=dict)
     reach: float | None = None
     base: tuple[float, float, float] | None = None
+    family: str = ""
 
 
 @dataclass(frozen=True)
@@ -250,6 +254,8 @@ def _effector_lines(e: EffectorInfo) -> list[str]:
         )
     good = [n for n, why in e.solvers.items() if why is None]
     out.append(f"  solvers: {', '.join(good) or '(none)'}")
+    if e.family:
+        out.append(f"  exact pose IK (subproblem): {e.family}")
     for n, why in e.solvers.items():
         if why is not None:
             out.append(f"  not {n}: {why}")
@@ -399,7 +405,9 @@ def _effector(
                 f"free joint '{jname}' on the path of {kind} '{name}': the chain stops "
                 "there; solvers keep the floating base where it is"
             )
-    return EffectorInfo(kind, name, infos, _solvers(chain), reach, b), warnings
+    family = subproblem_cache(chain).family
+    name_of = "" if family is None else family.name
+    return EffectorInfo(kind, name, infos, _solvers(chain), reach, b, name_of), warnings
 
 
 # ----------------------------------------------------------------------------- warnings

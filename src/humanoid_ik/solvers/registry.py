@@ -8,6 +8,7 @@ from typing import Any
 
 from humanoid_ik.errors import SolverError, choices
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+from humanoid_ik.solvers.analytic.subproblem import Subproblem
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.base import Solver
@@ -36,6 +37,7 @@ SOLVERS: dict[str, type[Solver]] = {
         LookAt,
         MinkSolver,
         ClosedForm,
+        Subproblem,
     )
 }
 

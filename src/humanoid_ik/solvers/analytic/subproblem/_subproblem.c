@@ -1,0 +1,233 @@
+/* The subproblem solver's Python binding: a CPython extension module on Python's headers
+   only (no MuJoCo), built by setup.py from this file and subproblems.c (the arithmetic:
+   the subproblems, the families, the ranges; see its opening comment).
+
+   Arm(...) holds an arm's numbers (ArmGeometry), nothing a call changes: any thread may
+   call it, and solve() runs without the GIL. solve() finds every solution, applies the ranges and writes the pick into the
+   caller's array; solutions() returns every solution; pose_errors() measures an answer
+   from MuJoCo's FK of it. Every buffer is checked (C-contiguous float64, its length)
+   before it is read. */
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "subproblems.h"
+
+typedef struct {
+  PyObject_HEAD
+  ArmGeometry g;
+} Arm;
+
+static int get_array(PyObject* obj, Py_buffer* view, Py_ssize_t n, int writable, const char* name) {
+  int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+  if (PyObject_GetBuffer(obj, view, flags) < 0) {
+    PyErr_Format(PyExc_TypeError, "%s must be a C-contiguous%s float64 array", name,
+                 writable ? " writable" : "");
+    return -1;
+  }
+  const char* f = view->format ? view->format : "B";
+  if (*f == '<' || *f == '=' || *f == '@') f++;
+  if (view->itemsize != 8 || f[0] != 'd' || f[1] != '\0' || view->len / 8 != n) {
+    PyErr_Format(PyExc_ValueError, "%s must be %zd float64 values", name, n);
+    PyBuffer_Release(view);
+    return -1;
+  }
+  return 0;
+}
+
+static int Arm_init(Arm* self, PyObject* args, PyObject* kwds) {
+  int family, pcase, reverse;
+  PyObject *ax, *pt, *R0, *p0, *W, *O;
+  static char* kw[] = {"family", "position_case", "reverse", "axes", "points", "end_rotation",
+                       "end_position", "wrist", "meet", NULL};
+  if (!PyArg_ParseTupleAndKeywords(args, kwds, "iipOOOOOO", kw, &family, &pcase, &reverse, &ax,
+                                   &pt, &R0, &p0, &W, &O))
+    return -1;
+  if (family < 0 || family > 1 || pcase < 0 || pcase > 3) {
+    PyErr_Format(PyExc_ValueError, "family must be 0 or 1 and position_case 0..3, got %d, %d",
+                 family, pcase);
+    return -1;
+  }
+  PyObject* objs[6] = {ax, pt, R0, p0, W, O};
+  const char* names[6] = {"axes", "points", "end_rotation", "end_position", "wrist", "meet"};
+  Py_ssize_t sizes[6] = {18, 18, 9, 3, 3, 3};
+  ArmGeometry* g = &self->g;
+  double* dest[6] = {&g->h[0][0], &g->p[0][0], g->R0, g->p0, g->W, g->O};
+  for (int i = 0; i < 6; i++) {
+    Py_buffer v;
+    if (get_array(objs[i], &v, sizes[i], 0, names[i]) < 0) return -1;
+    memcpy(dest[i], v.buf, sizes[i] * sizeof(double));
+    PyBuffer_Release(&v);
+  }
+  g->family = family, g->pcase = pcase, g->reverse = reverse;
+  return 0;
+}
+
+/* shared argument reading: pos, quat, base, q0 */
+static int read_common(PyObject* const* args, Py_buffer* v, double* GR, double* Gp, Arm* self) {
+  const char* names[4] = {"position", "quaternion", "base", "start"};
+  Py_ssize_t sizes[4] = {3, 4, 12, 6};
+  for (int i = 0; i < 4; i++)
+    if (get_array(args[i], &v[i], sizes[i], 0, names[i]) < 0) {
+      for (int j = 0; j < i; j++) PyBuffer_Release(&v[j]);
+      return -1;
+    }
+  sp_target(&self->g, v[0].buf, v[1].buf, v[2].buf, GR, Gp);
+  return 0;
+}
+
+PyDoc_STRVAR(solutions_doc,
+"solutions(position, quaternion, base, start) -> list of 6-tuples\n"
+"\n"
+"Every joint vector that puts the end frame at the target (world position, wxyz\n"
+"quaternion; base: the chain's base position and row-major rotation in the world),\n"
+"each angle in (-pi, pi], ranges not applied. ``start`` settles a straight wrist.");
+
+static PyObject* Arm_solutions(Arm* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 4) {
+    PyErr_SetString(PyExc_TypeError, "solutions takes 4 arguments");
+    return NULL;
+  }
+  Py_buffer v[4];
+  double GR[9], Gp[3], sol[MAXSOL][6];
+  if (read_common(args, v, GR, Gp, self) < 0) return NULL;
+  int n = sp_solve_all(&self->g, GR, Gp, v[3].buf, sol);
+  for (int i = 0; i < 4; i++) PyBuffer_Release(&v[i]);
+  PyObject* out = PyList_New(n);
+  if (!out) return NULL;
+  for (int i = 0; i < n; i++) {
+    PyObject* t = Py_BuildValue("(dddddd)", sol[i][0], sol[i][1], sol[i][2], sol[i][3], sol[i][4], sol[i][5]);
+    if (!t) {
+      Py_DECREF(out);
+      return NULL;
+    }
+    PyList_SET_ITEM(out, i, t);
+  }
+  return out;
+}
+
+PyDoc_STRVAR(solve_doc,
+"solve(position, quaternion, base, start, lower, upper, tol, out) -> (found, inside)\n"
+"\n"
+"Every solution, each angle shifted by multiples of 2 pi into its range (slack ``tol``\n"
+"[rad]) nearest the start; the in-range one nearest ``start`` (sum of squares) is\n"
+"written into ``out``. ``found``: solutions before the ranges, ``inside``: those in\n"
+"range. With none inside, ``out`` holds the solution whose angles (shifted nearest\n"
+"the ranges) leave them least, clipped into them; with none at all, ``start``.");
+
+static PyObject* Arm_solve(Arm* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 8) {
+    PyErr_SetString(PyExc_TypeError, "solve takes 8 arguments");
+    return NULL;
+  }
+  Py_buffer v[4], lo, hi, out;
+  double GR[9], Gp[3], sol[MAXSOL][6];
+  double tol = PyFloat_AsDouble(args[6]);
+  if (tol == -1.0 && PyErr_Occurred()) return NULL;
+  if (read_common(args, v, GR, Gp, self) < 0) return NULL;
+  if (get_array(args[4], &lo, 6, 0, "lower") < 0) goto fail4;
+  if (get_array(args[5], &hi, 6, 0, "upper") < 0) goto fail5;
+  if (get_array(args[7], &out, 6, 1, "out") < 0) goto fail6;
+  int n, inside;
+  Py_BEGIN_ALLOW_THREADS /* the buffers are held; the arm is only read */
+  n = sp_solve_all(&self->g, GR, Gp, v[3].buf, sol);
+  inside = sp_pick(sol, n, v[3].buf, lo.buf, hi.buf, tol, out.buf);
+  Py_END_ALLOW_THREADS
+  PyBuffer_Release(&out);
+  PyBuffer_Release(&hi);
+  PyBuffer_Release(&lo);
+  for (int i = 0; i < 4; i++) PyBuffer_Release(&v[i]);
+  return Py_BuildValue("(ii)", n, inside);
+fail6:
+  PyBuffer_Release(&hi);
+fail5:
+  PyBuffer_Release(&lo);
+fail4:
+  for (int i = 0; i < 4; i++) PyBuffer_Release(&v[i]);
+  return NULL;
+}
+
+PyDoc_STRVAR(pose_errors_doc,
+"pose_errors(site_position, site_rotation, target_position, target_quaternion)\n"
+"    -> (position_error, orientation_error)\n"
+"\n"
+"The errors of core/measures.pose_error from MuJoCo's FK of an answer (the site's\n"
+"position and row-major rotation): the distance [m] and the angle [rad] of the\n"
+"rotation from the site frame to the target's (in [0, pi]).");
+
+static PyObject* pose_errors(PyObject* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 4) {
+    PyErr_SetString(PyExc_TypeError, "pose_errors takes 4 arguments");
+    return NULL;
+  }
+  const char* names[4] = {"site_position", "site_rotation", "target_position", "target_quaternion"};
+  Py_ssize_t sizes[4] = {3, 9, 3, 4};
+  Py_buffer v[4];
+  for (int i = 0; i < 4; i++)
+    if (get_array(args[i], &v[i], sizes[i], 0, names[i]) < 0) {
+      for (int j = 0; j < i; j++) PyBuffer_Release(&v[j]);
+      return NULL;
+    }
+  double ep, er;
+  sp_pose_errors(v[0].buf, v[1].buf, v[2].buf, v[3].buf, &ep, &er);
+  for (int i = 0; i < 4; i++) PyBuffer_Release(&v[i]);
+  return Py_BuildValue("(dd)", ep, er);
+}
+
+static PyMethodDef module_methods[] = {
+    {"pose_errors", (PyCFunction)(void (*)(void))pose_errors, METH_FASTCALL, pose_errors_doc},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyMethodDef Arm_methods[] = {
+    {"solutions", (PyCFunction)(void (*)(void))Arm_solutions, METH_FASTCALL, solutions_doc},
+    {"solve", (PyCFunction)(void (*)(void))Arm_solve, METH_FASTCALL, solve_doc},
+    {NULL, NULL, 0, NULL},
+};
+
+PyDoc_STRVAR(Arm_doc,
+"Arm(family, position_case, reverse, axes, points, end_rotation, end_position, wrist, meet)\n"
+"\n"
+"A 6-hinge arm in its base frame at zero (float64 arrays: axes and points 18 values,\n"
+"end_rotation 9 row-major, end_position, wrist, meet 3 each), in the family's order\n"
+"(reversed when ``reverse``). Holds numbers only: any thread may call it.");
+
+static PyTypeObject ArmType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "humanoid_ik.solvers.analytic.subproblem._subproblem.Arm",
+    .tp_basicsize = sizeof(Arm),
+    .tp_itemsize = 0,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = Arm_doc,
+    .tp_methods = Arm_methods,
+    .tp_init = (initproc)Arm_init,
+    .tp_new = PyType_GenericNew,
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT,
+    .m_name = "humanoid_ik.solvers.analytic.subproblem._subproblem",
+    .m_doc = "Exact IK of 6-hinge arms by Paden-Kahan subproblems, in C.",
+    .m_size = -1,
+    .m_methods = module_methods,
+};
+
+PyMODINIT_FUNC PyInit__subproblem(void) {
+  if (PyType_Ready(&ArmType) < 0) return NULL;
+  PyObject* mod = PyModule_Create(&module);
+  if (!mod) return NULL;
+  Py_INCREF(&ArmType);
+  if (PyModule_AddObject(mod, "Arm", (PyObject*)&ArmType) < 0) {
+    Py_DECREF(&ArmType);
+    Py_DECREF(mod);
+    return NULL;
+  }
+  if (PyModule_AddIntConstant(mod, "MAX_SOLUTIONS", MAXSOL) < 0) {
+    Py_DECREF(mod);
+    return NULL;
+  }
+  return mod;
+}

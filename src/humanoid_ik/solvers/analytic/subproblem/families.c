@@ -1,0 +1,433 @@
+/* Exact IK of 6-hinge arms by Paden-Kahan subproblems: the families, the check of every
+   solution, the ranges. Plain C on doubles (no Python, no MuJoCo), built by setup.py
+   into the module _subproblem.
+
+   The arm is given in the product-of-exponentials form, in its base frame at the zero
+   configuration: unit axes h1..h6, a point p1..p6 on each axis, the end frame (R0, p0).
+   A target end pose T fixes G = T T0^-1 = e^(h1 q1) ... e^(h6 q6), where e^(h q) turns
+   about the line (p, h): x -> R(h, q) (x - p) + p. Every joint vector with that product
+   is found, by subproblems:
+
+     SP1  R(k, t) p = q                          t (one)
+     SP2  R(k1, t1) p1 = R(k2, t2) p2            (t1, t2) (two)
+     SP3  |R(k, t) p - q| = d                    t (two)
+     SP4  h' R(k, t) p = d                       t (two)
+     SP6  h' R(k1, t1) a1 + h' R(k2, t2) b1 = d1,
+          h' R(k1, t1) a2 + h' R(k2, t2) b2 = d2  (t1, t2) (four: a quartic)
+
+   Families (`family`):
+     0  spherical wrist: axes 4, 5, 6 meet at W. G W fixes q1..q3 (the position case
+        `pcase`: 0 h2 || h3, SP4 + SP3 + SP1; 1 h1 || h2, SP4 + SP3 + SP1; 2 h1 and h2
+        meet at O, SP3 + SP2; 3 h2 and h3 meet at O, SP3 + SP2), then the wrist
+        R4 R5 R6 = (R1 R2 R3)' G_R by SP4 + SP1 + SP1: up to 4 x 2 = 8 solutions.
+     1  three parallel axes h2 || h3 || h4 (the UR family): q1 and q5 from SP6 (what the
+        parallel axes leave along h: a point of axis 6 and the axis h6 itself), q6 by
+        SP1, the sum q2 + q3 + q4 by SP1, then the planar q2, q3 by SP3 + SP1: up to
+        4 x 2 = 8 solutions.
+   `reverse`: the arm was given reversed (base and end swapped: axes 6..1, negated), so
+   G is inverted first and the answers read back in the chain's order; a spherical
+   shoulder and h3 || h4 || h5 are then the same two families.
+
+   Every candidate is checked by the product of exponentials and polished by Newton
+   steps on the six pose equations (at most three, while the pose error falls); a
+   candidate still off by more than ACCEPT is dropped, so an answer is never a spurious
+   root. Joint ranges are applied here too (sp_pick): each angle moved by a multiple of
+   2 pi into its range (nearest the start where several fit), then the in-range solution
+   nearest the start (sum of squares) is chosen.
+
+   This file: the families, the check, the ranges; subproblems.c: SP1-SP6;
+   _subproblem.c: the Python binding. Built with -ffp-contract=off (GCC, Clang): the
+   same rounding on every machine. */
+
+#include <math.h>
+#include <string.h>
+
+#include "subproblems.h"
+
+#define ACCEPT 1e-7    /* largest pose error [m, rad] of an accepted solution */
+#define SAME 1e-7      /* two solutions closer than this [rad] per joint are one */
+#define POLISH 1e-12   /* a solution off by more [m, rad] gets Newton steps */
+
+/* ------------------------------------------------------------------ the arm's FK */
+
+/* G(q) = e^(h1 q1) ... e^(h6 q6): rotation Rg, translation pg (x -> Rg x + pg) */
+static void poe(const ArmGeometry* a, const double* q, double* Rg, double* pg) {
+  double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, p[3] = {0, 0, 0};
+  for (int i = 0; i < 6; i++) {
+    double Ri[9], Rn[9], t[3], c[3];
+    rot_mat(a->h[i], q[i], Ri);
+    /* e^(h q) x = Ri x + (p_i - Ri p_i); compose (R, p) o (Ri, ti) */
+    mat_vec(Ri, a->p[i], c);
+    sub(a->p[i], c, t);
+    mat_vec(R, t, c);
+    add(p, c, p);
+    mat_mul(R, Ri, Rn);
+    memcpy(R, Rn, sizeof R);
+  }
+  memcpy(Rg, R, sizeof R);
+  memcpy(pg, p, sizeof p);
+}
+
+/* the pose error of q against G (end frame at zero: R0, p0): position [m] and the
+   rotation vector [rad] of R_target R(q)', into e[6]; returns the larger norm */
+static double pose_err(const ArmGeometry* a, const double* q, const double* GR, const double* Gp, double* e) {
+  double R[9], p[3], x[3], y[3], D[9];
+  poe(a, q, R, p);
+  mat_vec(R, a->p0, x);
+  add(x, p, x);
+  mat_vec(GR, a->p0, y);
+  add(y, Gp, y);
+  sub(y, x, e);
+  /* D = GR R': the rotation left to do; its axis-angle */
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      D[3 * i + j] = GR[3 * i] * R[3 * j] + GR[3 * i + 1] * R[3 * j + 1] + GR[3 * i + 2] * R[3 * j + 2];
+  double v[3] = {0.5 * (D[7] - D[5]), 0.5 * (D[2] - D[6]), 0.5 * (D[3] - D[1])};
+  double s = norm(v), c = 0.5 * (D[0] + D[4] + D[8] - 1.0), ang = atan2(s, c);
+  double f = s > 1e-300 ? ang / s : 1.0;
+  for (int i = 0; i < 3; i++) e[3 + i] = f * v[i];
+  return fmax(norm(e), norm(e + 3));
+}
+
+/* Newton steps on the six pose equations (the error is measured at the end point
+   G p0); returns the pose error left */
+static double polish(const ArmGeometry* a, double* q, const double* GR, const double* Gp) {
+  double e[6], err = pose_err(a, q, GR, Gp, e);
+  for (int it = 0; it < 3 && err > POLISH; it++) {
+    double J[6][7], R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, p[3] = {0, 0, 0}, end[3], Rg[9], pg[3];
+    poe(a, q, Rg, pg);
+    mat_vec(Rg, a->p0, end);
+    add(end, pg, end);
+    for (int i = 0; i < 6; i++) { /* axis i and its point after joints 1..i-1 */
+      double w[3], c[3], r[3], v[3], Ri[9], Rn[9], t[3], cc[3];
+      mat_vec(R, a->h[i], w);
+      mat_vec(R, a->p[i], c);
+      add(c, p, c);
+      sub(end, c, r);
+      cross(w, r, v);
+      for (int k = 0; k < 3; k++) J[k][i] = v[k], J[3 + k][i] = w[k];
+      rot_mat(a->h[i], q[i], Ri);
+      mat_vec(Ri, a->p[i], cc);
+      sub(a->p[i], cc, t);
+      mat_vec(R, t, cc);
+      add(p, cc, p);
+      mat_mul(R, Ri, Rn);
+      memcpy(R, Rn, sizeof R);
+    }
+    for (int k = 0; k < 6; k++) J[k][6] = e[k];
+    int ok = 1;
+    for (int c = 0; c < 6 && ok; c++) { /* Gaussian elimination, partial pivoting */
+      int piv = c;
+      for (int r = c + 1; r < 6; r++)
+        if (fabs(J[r][c]) > fabs(J[piv][c])) piv = r;
+      if (fabs(J[piv][c]) < 1e-10) ok = 0;
+      for (int k = 0; k < 7 && ok; k++) {
+        double tmp = J[c][k];
+        J[c][k] = J[piv][k], J[piv][k] = tmp;
+      }
+      for (int r = c + 1; r < 6 && ok; r++) {
+        double f = J[r][c] / J[c][c];
+        for (int k = c; k < 7; k++) J[r][k] -= f * J[c][k];
+      }
+    }
+    if (!ok) break;
+    double dq[6], qn[6];
+    for (int r = 5; r >= 0; r--) {
+      double s = J[r][6];
+      for (int k = r + 1; k < 6; k++) s -= J[r][k] * dq[k];
+      dq[r] = s / J[r][r];
+    }
+    for (int k = 0; k < 6; k++) qn[k] = q[k] + dq[k];
+    double en[6], errn = pose_err(a, qn, GR, Gp, en);
+    if (!(errn < err)) break;
+    memcpy(q, qn, sizeof qn);
+    memcpy(e, en, sizeof en);
+    err = errn;
+  }
+  return err;
+}
+
+/* ------------------------------------------------------------------ the families */
+
+/* q1..q3 that put the wrist point W at Wd (family 0), up to 4 */
+static int position3(const ArmGeometry* a, const double* Wd, double sol[4][3]) {
+  const double *h1 = a->h[0], *h2 = a->h[1], *h3 = a->h[2];
+  const double *p1 = a->p[0], *p2 = a->p[1], *p3 = a->p[2], *W = a->W, *O = a->O;
+  double t[2], u[2], v1[2], v2[2], x[3], y[3], Y[3], V[3], V2[3];
+  int n = 0;
+  switch (a->pcase) {
+    case 0: /* h2 || h3: along h2 only q1 moves Wd */
+      sub(Wd, p1, x), sub(W, p1, y);
+      for (int i = 0, ni = sp4(h2, h1, x, dot(h2, y), t); i < ni; i++) {
+        turn(h1, p1, t[i], Wd, Y);
+        sub(W, p3, x), sub(p2, p3, y), sub(Y, p2, V);
+        double d = norm(V);
+        for (int j = 0, nj = sp3(h3, x, y, d, u); j < nj; j++) {
+          turn(h3, p3, u[j], W, V);
+          sub(V, p2, x), sub(Y, p2, y);
+          double q2;
+          sp1(h2, x, y, &q2);
+          sol[n][0] = -t[i], sol[n][1] = q2, sol[n][2] = u[j], n++;
+        }
+      }
+      break;
+    case 1: /* h1 || h2: along h1 only q3 moves W */
+      sub(W, p3, x), sub(Wd, p3, y);
+      for (int i = 0, ni = sp4(h1, h3, x, dot(h1, y), t); i < ni; i++) {
+        turn(h3, p3, t[i], W, V);
+        sub(V, p2, x), sub(p1, p2, y), sub(Wd, p1, Y);
+        for (int j = 0, nj = sp3(h2, x, y, norm(Y), u); j < nj; j++) {
+          turn(h2, p2, u[j], V, V2);
+          sub(V2, p1, x);
+          double q1;
+          sp1(h1, x, Y, &q1);
+          sol[n][0] = q1, sol[n][1] = u[j], sol[n][2] = t[i], n++;
+        }
+      }
+      break;
+    case 2: /* h1 and h2 meet at O: |W - O| fixes q3 */
+      sub(W, p3, x), sub(O, p3, y), sub(Wd, O, Y);
+      for (int i = 0, ni = sp3(h3, x, y, norm(Y), t); i < ni; i++) {
+        turn(h3, p3, t[i], W, V);
+        sub(V, O, V2);
+        for (int j = 0, nj = sp2(h1, Y, h2, V2, v1, v2); j < nj; j++)
+          sol[n][0] = -v1[j], sol[n][1] = v2[j], sol[n][2] = t[i], n++;
+      }
+      break;
+    default: /* h2 and h3 meet at O: |Wd - O| after q1 fixes q1 */
+      sub(Wd, p1, x), sub(O, p1, y), sub(W, O, V);
+      for (int i = 0, ni = sp3(h1, x, y, norm(V), t); i < ni; i++) {
+        turn(h1, p1, t[i], Wd, Y);
+        sub(Y, O, V2);
+        for (int j = 0, nj = sp2(h2, V2, h3, V, v1, v2); j < nj; j++)
+          sol[n][0] = -t[i], sol[n][1] = -v1[j], sol[n][2] = v2[j], n++;
+      }
+  }
+  return n;
+}
+
+/* q4..q6 with R4 R5 R6 = M (axes 4, 5, 6 meet); q4_start where the wrist is straight */
+static int wrist3(const ArmGeometry* a, const double* M, double q4_start, double sol[2][3]) {
+  const double *h4 = a->h[3], *h5 = a->h[4], *h6 = a->h[5];
+  double Mh6[3], Mth4[3], t[2], x[3], y[3];
+  mat_vec(M, h6, Mh6);
+  mat_tvec(M, h4, Mth4);
+  int n = sp4(h4, h5, h6, dot(h4, Mh6), t);
+  for (int i = 0; i < n; i++) {
+    double q4, q6;
+    rot(h5, t[i], h6, x);
+    if (sp1(h4, x, Mh6, &q4) < 1e-12) { /* h6 turned onto h4: only q4 + q6 counts */
+      double R4[9], R5[9], A[9], B[9], nrm[3];
+      q4 = q4_start;
+      rot_mat(h4, q4, R4), rot_mat(h5, t[i], R5);
+      mat_mul(R4, R5, A);
+      mat_tmul(A, M, B); /* R6 = (R4 R5)' M */
+      normal_to(h6, nrm);
+      mat_vec(B, nrm, y);
+      sp1(h6, nrm, y, &q6);
+    } else {
+      rot(h5, -t[i], h4, y);
+      sp1(h6, Mth4, y, &q6);
+    }
+    sol[i][0] = q4, sol[i][1] = t[i], sol[i][2] = q6;
+  }
+  return n;
+}
+
+static int family_wrist(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
+                        double out[MAXSOL][6]) {
+  double Wd[3], pos[4][3], wr[2][3];
+  mat_vec(GR, a->W, Wd);
+  add(Wd, Gp, Wd);
+  int np = position3(a, Wd, pos), n = 0;
+  for (int i = 0; i < np; i++) {
+    double R1[9], R2[9], R3[9], A[9], B[9], M[9];
+    rot_mat(a->h[0], pos[i][0], R1), rot_mat(a->h[1], pos[i][1], R2), rot_mat(a->h[2], pos[i][2], R3);
+    mat_mul(R1, R2, A), mat_mul(A, R3, B);
+    mat_tmul(B, GR, M);
+    int nw = wrist3(a, M, q0[3], wr);
+    for (int j = 0; j < nw && n < MAXSOL; j++, n++) {
+      memcpy(out[n], pos[i], 3 * sizeof(double));
+      memcpy(out[n] + 3, wr[j], 3 * sizeof(double));
+    }
+  }
+  return n;
+}
+
+static int family_parallel(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
+                           double out[MAXSOL][6]) {
+  const double *h = a->h[1], *h1 = a->h[0], *h5 = a->h[4], *h6 = a->h[5];
+  const double *p1 = a->p[0], *p2 = a->p[1], *p3 = a->p[2], *p4 = a->p[3], *p5 = a->p[4], *p6 = a->p[5];
+  double s3 = dot(a->h[2], h) > 0.0 ? 1.0 : -1.0, s4 = dot(a->h[3], h) > 0.0 ? 1.0 : -1.0;
+  double Gp6[3], a1[3], b1[3], a2[3], b2[3], c[3], A[2][4], b[2], t1[4], t2[4];
+  /* along h: h' R(h1, -q1) (G p6 - p1) - h' R(h5, q5) (p6 - p5) = h' (p5 - p1) and
+     h' R(h1, -q1) (G_R h6) - h' R(h5, q5) h6 = 0 */
+  mat_vec(GR, p6, Gp6);
+  add(Gp6, Gp, Gp6);
+  sub(Gp6, p1, a1), sub(p5, p6, b1), mat_vec(GR, h6, a2);
+  for (int i = 0; i < 3; i++) b2[i] = -h6[i];
+  sub(p5, p1, c);
+  b[0] = dot(h, c), b[1] = 0.0;
+  const double* rows[2][2] = {{a1, b1}, {a2, b2}};
+  for (int r = 0; r < 2; r++) {
+    double ta[3], tb[3];
+    trig_terms(h, h1, rows[r][0], ta);
+    trig_terms(h, h5, rows[r][1], tb);
+    A[r][0] = ta[1], A[r][1] = ta[2], A[r][2] = tb[1], A[r][3] = tb[2];
+    b[r] -= ta[0] + tb[0];
+  }
+  int n6 = sp6(A, b, t1, t2), n = 0;
+  for (int i = 0; i < n6; i++) {
+    double q1 = -t1[i], q5 = t2[i], q6, R1[9], R5[9], R6[9], M[9], Mth[3], x[3], y[3];
+    rot_mat(h1, q1, R1), rot_mat(h5, q5, R5);
+    mat_tmul(R1, GR, M); /* R234 R5 R6 */
+    mat_tvec(M, h, Mth);
+    mat_tvec(R5, h, y);
+    if (sp1(h6, Mth, y, &q6) < 1e-12) q6 = q0[5];
+    rot_mat(h6, q6, R6);
+    /* R234 = M R6' R5': its angle about h */
+    double B[9], C[9], nrm[3], th, z[3], Kp4[3];
+    mat_mul(R5, R6, B);
+    for (int r = 0; r < 3; r++) /* C = M B' */
+      for (int k = 0; k < 3; k++) C[3 * r + k] = M[3 * r] * B[3 * k] + M[3 * r + 1] * B[3 * k + 1] + M[3 * r + 2] * B[3 * k + 2];
+    normal_to(h, nrm);
+    mat_vec(C, nrm, y);
+    sp1(h, nrm, y, &th);
+    /* K p4 = e^(-h1 q1) G (e^(h5 q5) e^(h6 q6))^-1 p4, and K = e^(h2 q2) e^(h3 q3) e^(h4 q4) */
+    turn(a->h[4], p5, -q5, p4, x);
+    turn(h6, p6, -q6, x, z);
+    mat_vec(GR, z, x);
+    add(x, Gp, x);
+    turn(h1, p1, -q1, x, Kp4);
+    double pp[3], qq[3], d[3], u[2];
+    sub(p4, p3, pp), sub(p2, p3, qq), sub(Kp4, p2, d);
+    for (int j = 0, nj = sp3(a->h[2], pp, qq, norm(d), u); j < nj && n < MAXSOL; j++) {
+      double V[3], q2;
+      turn(a->h[2], p3, u[j], p4, V);
+      sub(V, p2, x);
+      sp1(h, x, d, &q2);
+      out[n][0] = q1, out[n][1] = q2, out[n][2] = u[j];
+      out[n][3] = s4 * (th - q2 - s3 * u[j]), out[n][4] = q5, out[n][5] = q6;
+      n++;
+    }
+  }
+  return n;
+}
+
+/* every solution of G (in the chain's order, each angle in (-pi, pi]); q0 the start */
+int sp_solve_all(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
+                 const double* q0_in, double out[MAXSOL][6]) {
+  double GR[9], Gp[3], q0[6], raw[MAXSOL][6];
+  if (a->reverse) { /* G^-1 on the reversed arm */
+    for (int i = 0; i < 3; i++)
+      for (int j = 0; j < 3; j++) GR[3 * i + j] = GR_in[3 * j + i];
+    mat_vec(GR, Gp_in, Gp);
+    for (int i = 0; i < 3; i++) Gp[i] = -Gp[i];
+    for (int i = 0; i < 6; i++) q0[i] = q0_in[5 - i];
+  } else {
+    memcpy(GR, GR_in, sizeof GR), memcpy(Gp, Gp_in, sizeof Gp), memcpy(q0, q0_in, sizeof q0);
+  }
+  int nr = a->family == 0 ? family_wrist(a, GR, Gp, q0, raw) : family_parallel(a, GR, Gp, q0, raw);
+  int n = 0;
+  for (int i = 0; i < nr; i++) {
+    if (polish(a, raw[i], GR, Gp) > ACCEPT) continue;
+    double q[6];
+    for (int k = 0; k < 6; k++) q[k] = wrap(raw[i][a->reverse ? 5 - k : k]);
+    int dup = 0;
+    for (int j = 0; j < n && !dup; j++) {
+      dup = 1;
+      for (int k = 0; k < 6; k++) {
+        double d = fabs(q[k] - out[j][k]); /* both in (-pi, pi] */
+        if (d > SAME && TWO_PI - d > SAME) { dup = 0; break; }
+      }
+    }
+    if (!dup) memcpy(out[n++], q, sizeof q);
+  }
+  return n;
+}
+
+/* ------------------------------------------------------------------ targets, ranges */
+
+/* the rotation of a wxyz quaternion (normalised here), row-major */
+static void quat_mat(const double* q, double* R) {
+  double w = q[0], x = q[1], y = q[2], z = q[3], s = 1.0 / (w * w + x * x + y * y + z * z);
+  R[0] = 1 - 2 * s * (y * y + z * z), R[1] = 2 * s * (x * y - w * z), R[2] = 2 * s * (x * z + w * y);
+  R[3] = 2 * s * (x * y + w * z), R[4] = 1 - 2 * s * (x * x + z * z), R[5] = 2 * s * (y * z - w * x);
+  R[6] = 2 * s * (x * z - w * y), R[7] = 2 * s * (y * z + w * x), R[8] = 1 - 2 * s * (x * x + y * y);
+}
+
+/* target (position 3, quaternion wxyz 4) and base (position 3, row-major rotation 9,
+   world) into G in the base frame */
+void sp_target(const ArmGeometry* a, const double* pos, const double* quat, const double* base,
+               double* GR, double* Gp) {
+  double Rt[9], Rd[9], pd[3], d[3], c[3];
+  quat_mat(quat, Rt);
+  mat_tmul(base + 3, Rt, Rd); /* Rb' Rt */
+  sub(pos, base, d);
+  mat_tvec(base + 3, d, pd);
+  for (int i = 0; i < 3; i++) /* GR = Rd R0' */
+    for (int j = 0; j < 3; j++)
+      GR[3 * i + j] = Rd[3 * i] * a->R0[3 * j] + Rd[3 * i + 1] * a->R0[3 * j + 1] + Rd[3 * i + 2] * a->R0[3 * j + 2];
+  mat_vec(GR, a->p0, c);
+  sub(pd, c, Gp);
+}
+
+/* angle q moved by a multiple of 2 pi into [lo, hi] (slack tol), nearest the start s;
+   returns 0 where no shift fits */
+static int shift(double q, double s, double lo, double hi, double tol, double* out) {
+  double k = round((s - q) / TWO_PI);
+  if (isfinite(lo)) k = fmax(k, ceil((lo - tol - q) / TWO_PI));
+  if (isfinite(hi)) k = fmin(k, floor((hi + tol - q) / TWO_PI));
+  double x = q + k * TWO_PI;
+  if ((isfinite(lo) && x < lo - tol) || (isfinite(hi) && x > hi + tol)) return 0;
+  *out = x < lo ? lo : (x > hi ? hi : x);
+  return 1;
+}
+
+
+/* Each solution's angles moved by multiples of 2 pi into their ranges nearest the
+   start (shift); the in-range solution nearest q0 (sum of squares) into out. With none
+   inside, out holds the solution whose angles (shifted nearest the ranges) leave them
+   least, clipped into them; with none at all, q0. */
+int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* L, const double* U,
+            double tol, double* out) {
+  int inside = 0;
+  double best = INFINITY, least = INFINITY, near[6];
+  memcpy(out, q0, 6 * sizeof(double));
+  for (int i = 0; i < n; i++) {
+    double x[6], d = 0.0, miss = 0.0;
+    int ok = 1;
+    for (int k = 0; k < 6; k++) {
+      if (!shift(sol[i][k], q0[k], L[k], U[k], tol, &x[k])) {
+        /* out of range: the shift nearest the range, clipped, and by how much */
+        double c = isfinite(L[k]) && isfinite(U[k]) ? 0.5 * (L[k] + U[k]) : q0[k];
+        double y = sol[i][k] + round((c - sol[i][k]) / TWO_PI) * TWO_PI;
+        miss += y < L[k] ? L[k] - y : y - U[k];
+        x[k] = y < L[k] ? L[k] : (y > U[k] ? U[k] : y);
+        ok = 0;
+      }
+      d += (x[k] - q0[k]) * (x[k] - q0[k]);
+    }
+    if (ok) {
+      inside++;
+      if (d < best) best = d, memcpy(out, x, sizeof x);
+    } else if (!inside && miss < least) {
+      least = miss, memcpy(near, x, sizeof x);
+    }
+  }
+  if (!inside && n) memcpy(out, near, sizeof near);
+  return inside;
+}
+
+void sp_pose_errors(const double* p, const double* R, const double* pt, const double* qt,
+                    double* ep, double* er) {
+  double d[3], Rt[9], D[9];
+  sub(pt, p, d);
+  quat_mat(qt, Rt);
+  for (int i = 0; i < 3; i++) /* D = Rt R' */
+    for (int j = 0; j < 3; j++)
+      D[3 * i + j] = Rt[3 * i] * R[3 * j] + Rt[3 * i + 1] * R[3 * j + 1] + Rt[3 * i + 2] * R[3 * j + 2];
+  double w[3] = {0.5 * (D[7] - D[5]), 0.5 * (D[2] - D[6]), 0.5 * (D[3] - D[1])};
+  *ep = norm(d);
+  *er = atan2(norm(w), 0.5 * (D[0] + D[4] + D[8] - 1.0));
+}

@@ -1,0 +1,115 @@
+"""The ``subproblem`` solver: exact pose IK of a 6-hinge arm of a family the
+subproblems decompose (:mod:`.geometry`), every solution found in C, the ranges applied
+with the 2 pi shift, the in-range solution nearest the start returned."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.types import IKResult, Status, Target
+from humanoid_ik.errors import SolverError
+from humanoid_ik.solvers.analytic.closed_form.numeric import RANGE_TOL
+from humanoid_ik.solvers.analytic.subproblem._subproblem import pose_errors
+from humanoid_ik.solvers.analytic.subproblem.geometry import subproblem_cache
+from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.options import SolverOptions
+
+__all__ = ["Subproblem", "SubproblemOptions", "solutions"]
+
+POSE_ONLY = "subproblem solves pose targets only (a position leaves the arm 3 free angles)"
+
+
+@dataclass(frozen=True)
+class SubproblemOptions(SolverOptions):
+    """Options of ``subproblem``: the tolerances only (``tol``, ``rot_tol``), which
+    decide ``converged``; the answer itself is exact to rounding."""
+
+
+class Subproblem(Solver):
+    """Exact pose IK of a 6-hinge arm by Paden-Kahan subproblems (see
+    ``docs/subproblem.md``).
+
+    Applies to a chain with a spherical wrist or shoulder whose other three axes have
+    parallel or meeting neighbours, or with three parallel neighbouring axes (the UR
+    family): :func:`~.geometry.family_of`. Every joint vector that reaches the target
+    (up to 8) is found in C; each angle is moved by a multiple of 2 pi into its range
+    (nearest the start where several fit), and the in-range solution nearest the start
+    (sum of squared differences) is returned.
+
+    Errors: MuJoCo's FK of the answer (``mj_kinematics``), measured in C by the formula
+    of :func:`~humanoid_ik.core.measures.pose_error` (the distance and the angle between
+    the frames), as ``lm``'s kernel measures its own: ``pose_error``'s three MuJoCo
+    calls on numpy views cost about 4 us, as much as the solve itself in C.
+
+    Statuses: ``converged``; ``unreachable`` for a target no joint vector reaches (the
+    start is returned) or one whose every solution leaves the ranges (the solution that
+    leaves them least, clipped into them, is returned). ``details``: ``solutions`` (how
+    many reach the target) and ``inside`` (how many of them are in range).
+
+    Caches: the chain keeps its family and the compiled arm
+    (:class:`~.geometry.SubproblemCache`); :meth:`prepare` builds them.
+    """
+
+    name: ClassVar[str] = "subproblem"
+    summary: ClassVar[str] = "exact 6-hinge IK by Paden-Kahan subproblems, every solution, in C"
+    supports_orientation: ClassVar[bool] = True
+    Options: ClassVar[type[SolverOptions]] = SubproblemOptions
+
+    def prepare(self, chain: Chain) -> None:
+        """Read the chain's geometry and family, build the compiled arm (kept with the chain)."""
+        subproblem_cache(chain)
+
+    def applicable(self, chain: Chain, pose: bool = False) -> str | None:
+        reason = subproblem_cache(chain).reason
+        if reason is None and not pose:
+            return POSE_ONLY
+        return reason
+
+    def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+        quat = target.quat
+        if quat is None:
+            raise SolverError(POSE_ONLY)
+        arm, base = subproblem_cache(chain).current(chain)
+        q = np.empty(6)
+        found, inside = arm.solve(
+            target.position, quat, base, q0, chain.lower, chain.upper, RANGE_TOL, q
+        )
+        chain.set_q(q)  # the scratch data at the answer; MuJoCo's FK of it measured
+        ep, er = pose_errors(chain.position, chain.rotation, target.position, quat)
+        message = ""
+        if inside:
+            o = self.options
+            ok = ep < o.tol and er < o.rot_tol
+            status = Status.CONVERGED if ok else Status.MAX_ITERATIONS
+        elif found:
+            status = Status.UNREACHABLE
+            message = f"{found} joint vectors reach the target, none inside the joint ranges"
+        else:
+            status = Status.UNREACHABLE
+            message = "no joint vector reaches the target (beyond the arm's reach)"
+        details = {"solutions": found, "inside": inside}
+        converged = status is Status.CONVERGED
+        return IKResult(q, converged, 1, ep, er, status, self.name, message, details)
+
+
+def solutions(
+    chain: Chain, target: Target | ArrayLike, q0: ArrayLike | None = None
+) -> list[NDArray[np.float64]]:
+    """Every joint vector ``(6,)`` that puts ``chain``'s end frame at the pose
+    ``target``, each angle in (-pi, pi] (no range applied); ``q0`` (default: the
+    chain's joints) only settles a straight wrist's free angle.
+
+    Raises:
+        SolverError: no exact decomposition applies to the chain.
+    """
+    tgt = Target.of(target)
+    if tgt.quat is None:
+        raise SolverError(POSE_ONLY)
+    arm, base = subproblem_cache(chain).current(chain)
+    start = chain.q if q0 is None else np.ascontiguousarray(chain.check_q(q0))
+    return [np.array(s) for s in arm.solutions(tgt.position, tgt.quat, base, start)]

@@ -1,0 +1,125 @@
+/* The subproblem solver's arithmetic, shared by its three C files: the subproblems
+   (subproblems.c), the families, the ranges and the check (families.c), and the Python
+   binding (_subproblem.c). Plain C on doubles, no Python, no MuJoCo. */
+
+#ifndef HUMANOID_IK_SUBPROBLEMS_H
+#define HUMANOID_IK_SUBPROBLEMS_H
+
+#include <math.h>
+
+#define MAXSOL 16 /* the most solutions one target has here (8 per family, room to spare) */
+#define TWO_PI 6.283185307179586476925286766559
+#define SLACK 1e-9 /* relative slack that keeps a tangent case's root */
+
+/* A 6-hinge arm in its base frame at the zero configuration, in the family's order. */
+typedef struct {
+  int family, pcase, reverse;
+  double h[6][3], p[6][3]; /* the axes and points the subproblems use (reversed if so) */
+  double R0[9], p0[3];     /* the end frame at zero, in the base frame (the chain's) */
+  double W[3], O[3];       /* the wrist point; the meeting point of the position case */
+} ArmGeometry;
+
+/* G = T T0^-1 in the base frame from a world target (position 3, wxyz quaternion 4)
+   and the base's world pose (position 3, row-major rotation 9) */
+void sp_target(const ArmGeometry* a, const double* pos, const double* quat, const double* base,
+               double* GR, double* Gp);
+
+/* every solution of G, in the chain's order, each angle in (-pi, pi]; q0 the start
+   (settles a straight wrist); returns how many */
+int sp_solve_all(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
+                 double out[MAXSOL][6]);
+
+/* the ranges applied to n solutions (see families.c); the pick into out; returns how
+   many fit the ranges */
+int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* lower,
+            const double* upper, double tol, double* out);
+
+/* the distance [m] and the rotation angle [rad, 0..pi] from a frame (position, row-major
+   rotation) to a target (position, wxyz quaternion) */
+void sp_pose_errors(const double* p, const double* R, const double* pt, const double* qt,
+                    double* ep, double* er);
+
+/* the subproblems (subproblems.c): sp1 returns how well its angle is defined (0: any),
+   the others how many solutions they wrote */
+double sp1(const double* k, const double* p, const double* q, double* t);
+int sp2(const double* k1, const double* p1, const double* k2, const double* p2, double* t1,
+        double* t2);
+int sp3(const double* k, const double* p, const double* q, double d, double* t);
+int sp4(const double* h, const double* k, const double* p, double d, double* t);
+int sp6(const double A[2][4], const double b[2], double* t1, double* t2);
+void trig_terms(const double* h, const double* k, const double* p, double* c);
+
+/* ------------------------------------------------------------------ vectors */
+
+static inline double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static inline void cross(const double* a, const double* b, double* c) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+static inline void sub(const double* a, const double* b, double* c) {
+  c[0] = a[0] - b[0], c[1] = a[1] - b[1], c[2] = a[2] - b[2];
+}
+static inline void add(const double* a, const double* b, double* c) {
+  c[0] = a[0] + b[0], c[1] = a[1] + b[1], c[2] = a[2] + b[2];
+}
+static inline double norm(const double* a) { return sqrt(dot(a, a)); }
+
+/* R(k, t) v (Rodrigues), k a unit vector */
+static inline void rot(const double* k, double t, const double* v, double* out) {
+  double c = cos(t), s = sin(t), kv = dot(k, v), kx[3];
+  cross(k, v, kx);
+  for (int i = 0; i < 3; i++) out[i] = c * v[i] + s * kx[i] + (1.0 - c) * kv * k[i];
+}
+
+/* R(k, t) as a row-major matrix */
+static inline void rot_mat(const double* k, double t, double* R) {
+  double c = cos(t), s = sin(t), v = 1.0 - c;
+  R[0] = c + k[0] * k[0] * v, R[1] = k[0] * k[1] * v - k[2] * s, R[2] = k[0] * k[2] * v + k[1] * s;
+  R[3] = k[1] * k[0] * v + k[2] * s, R[4] = c + k[1] * k[1] * v, R[5] = k[1] * k[2] * v - k[0] * s;
+  R[6] = k[2] * k[0] * v - k[1] * s, R[7] = k[2] * k[1] * v + k[0] * s, R[8] = c + k[2] * k[2] * v;
+}
+static inline void mat_mul(const double* A, const double* B, double* C) { /* C = A B */
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+static inline void mat_tmul(const double* A, const double* B, double* C) { /* C = A' B */
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      C[3 * i + j] = A[i] * B[j] + A[3 + i] * B[3 + j] + A[6 + i] * B[6 + j];
+}
+static inline void mat_vec(const double* A, const double* v, double* out) {
+  for (int i = 0; i < 3; i++) out[i] = A[3 * i] * v[0] + A[3 * i + 1] * v[1] + A[3 * i + 2] * v[2];
+}
+static inline void mat_tvec(const double* A, const double* v, double* out) {
+  for (int i = 0; i < 3; i++) out[i] = A[i] * v[0] + A[3 + i] * v[1] + A[6 + i] * v[2];
+}
+
+/* e^(h q) applied to x: R(h, q) (x - p) + p */
+static inline void turn(const double* h, const double* p, double q, const double* x, double* out) {
+  double d[3];
+  sub(x, p, d);
+  rot(h, q, d, out);
+  add(out, p, out);
+}
+
+/* a in (-pi, pi]; a few turns at most, so subtraction beats remainder() */
+static inline double wrap(double a) {
+  if (fabs(a) > 8.0 * TWO_PI) a = remainder(a, TWO_PI);
+  while (a > M_PI) a -= TWO_PI;
+  while (a <= -M_PI) a += TWO_PI;
+  return a;
+}
+
+/* a unit vector normal to unit k */
+static inline void normal_to(const double* k, double* n) {
+  double e[3] = {0.0, 0.0, 0.0}, c[3];
+  int i = fabs(k[0]) < fabs(k[1]) ? (fabs(k[0]) < fabs(k[2]) ? 0 : 2) : (fabs(k[1]) < fabs(k[2]) ? 1 : 2);
+  e[i] = 1.0;
+  cross(k, e, c);
+  double r = norm(c);
+  for (int j = 0; j < 3; j++) n[j] = c[j] / r;
+}
+
+#endif
