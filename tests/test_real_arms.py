@@ -19,7 +19,7 @@ from humanoid_ik.core.limbs import Profile, find_limbs, limb_chain
 from humanoid_ik.core.models import load_model
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.experiments.bench import make_targets
-from humanoid_ik.experiments.limb_report import limb_infos, limb_lines
+from humanoid_ik.experiments.limb_report import POSE_EXACT, limb_infos, limb_lines
 from humanoid_ik.solvers.analytic.closed_form.geometry import MEET_TOL
 from humanoid_ik.solvers.auto import Auto
 from tests.chains import MODELS
@@ -120,9 +120,10 @@ def test_axes_meet_within_the_stated_tolerance(offset, meets):
 
 @pytest.mark.parametrize("name", [*ROBOTS, "h1_arms", "h1_arms_spherical"])
 def test_solvers_listed_as_applying_reach_reachable_targets(name):
-    """Every solver inspect lists as applying to a real arm (closed_form for pose, two_link
-    for position targets) reaches every one of a few dozen reachable targets, and auto
-    runs it there; a two_link that holds a wrist moving the hand is not listed."""
+    """Every solver inspect lists as applying to a real arm (closed_form and subproblem for
+    pose, two_link for position targets) reaches every one of a few dozen reachable
+    targets, and auto runs it there; a two_link that holds a wrist moving the hand is not
+    listed."""
     rb, profile = robot(name)
     infos = [lb for lb in limb_infos(rb.model, profile) if lb.auto]
     assert infos, name
@@ -130,12 +131,12 @@ def test_solvers_listed_as_applying_reach_reachable_targets(name):
     for info in infos:
         chain = limb_chain(rb, info.name, profile=profile)
         for solver, why in info.exact.items():
-            pose = solver == "closed_form"
+            pose = solver in POSE_EXACT
             if why is None:
                 listed += 1
                 assert (info.auto if pose else info.auto_position) == solver
                 assert set(reach_all(chain, make_solver(solver), 24, pose)) == {solver}
-    want = {"romeo": 2, "icub": 4, "h1_arms_spherical": 2}.get(name, 0)
+    want = {"romeo": 2, "icub": 4, "h1_arms_spherical": 2, "ur5": 1, "kinova": 1}.get(name, 0)
     assert listed == want, [lb.exact for lb in infos]
 
 

@@ -14,13 +14,17 @@ import mujoco
 from humanoid_ik.core.limbs import Profile, limb_chain
 from humanoid_ik.errors import HumanoidIKError
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
+from humanoid_ik.solvers.analytic.subproblem import Subproblem
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.analytic.two_link.geometry import limb_cache
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.mink.pairs import limb_collision_pairs
 from humanoid_ik.solvers.registry import SOLVERS
 
-__all__ = ["LimbInfo", "limb_infos", "limb_lines", "limb_pairs", "pair_lines"]
+__all__ = ["POSE_EXACT", "LimbInfo", "limb_infos", "limb_lines", "limb_pairs", "pair_lines"]
+
+POSE_EXACT = ("closed_form", "subproblem")
+"""The exact solvers ``inspect`` lists for pose targets (``two_link``: position)."""
 
 
 @dataclass(frozen=True)
@@ -36,9 +40,9 @@ class LimbInfo:
             the limb is not reached with).
         auto_position: the same for position targets.
         why: why ``auto`` runs those, ``{"pose": ..., "position": ...}``.
-        exact: per exact solver (``closed_form`` for pose targets, ``two_link`` for
-            position targets), ``None`` where it applies and reaches every target the
-            limb reaches, else why not.
+        exact: per exact solver (:data:`POSE_EXACT` for pose targets, ``two_link``
+            for position targets), ``None`` where it applies and reaches every target
+            the limb reaches, else why not.
         source: how it was found (``names``, ``geometry``, ``tree``, ``profile``).
     """
 
@@ -70,6 +74,7 @@ def limb_infos(model: mujoco.MjModel, profile: Profile) -> tuple[LimbInfo, ...]:
                     why[task] = auto.reason(chain, i == 0)
                 exact = {
                     "closed_form": ClosedForm().applicable(chain, True),
+                    "subproblem": Subproblem().applicable(chain, True),
                     "two_link": TwoLink().applicable(chain, False) or limb_cache(chain).held,
                 }
         out.append(
@@ -109,7 +114,7 @@ def limb_lines(limbs: tuple[LimbInfo, ...], notes: tuple[str, ...] = ()) -> list
                 f"({lb.why['position']})"
             )
             for solver, why in lb.exact.items():
-                task = "pose" if solver == "closed_form" else "position"
+                task = "pose" if solver in POSE_EXACT else "position"
                 state = f"applies (exact, {task} targets)" if why is None else f"no: {why}"
                 out.append(f"  {'':<{width}}  {solver}: {state}")
             if "arm" in lb.name:
