@@ -55,13 +55,12 @@ from humanoid_ik.experiments.retarget.plan import Plan, plan_swivels
 from humanoid_ik.experiments.retarget.robot import RobotArm, RobotSide
 from humanoid_ik.experiments.retarget.speed import STEPS, bounded_solve
 from humanoid_ik.experiments.retarget.targets import BENT, STRAIGHT, Targets, rest_offset
-from humanoid_ik.experiments.retarget.tracks import track_path
+from humanoid_ik.experiments.retarget.tracks import track_path, tracking_lm
 from humanoid_ik.solvers.analytic.closed_form import ClosedForm
 from humanoid_ik.solvers.analytic.elbow import arm_points
 from humanoid_ik.solvers.analytic.two_link import TwoLink
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.base import error_buffers
-from humanoid_ik.solvers.jacobian.lm import LM
 from humanoid_ik.solvers.look_at import LookAt
 
 __all__ = ["ELBOW_STEPS", "FIRST_STEPS", "SOLVERS", "FrameSolve", "Retargeter"]
@@ -122,8 +121,8 @@ class Retargeter:
         for side, arm in self.arms.items():
             name = auto.choice(arm.chain, arm.pose).name
             self.method[side] = name if solver == "auto" else "mink"
-        self._lm = LM(restarts=0)  # tracking: the answer nearest the warm start
-        self._lm_start = LM()
+        self._lm = tracking_lm(restarts=0)  # the answer nearest the warm start
+        self._lm_start = tracking_lm()
         self._two_link = TwoLink()
         self._gaze = None
         self.gaze_on = robot.head is not None and targets.gaze is not None

@@ -25,10 +25,23 @@ from humanoid_ik.experiments.retarget.robot import RobotArm
 from humanoid_ik.experiments.retarget.targets import ArmTargets
 from humanoid_ik.solvers.jacobian.lm import LM
 
-__all__ = ["LOST", "track_path"]
+__all__ = ["LOST", "ROT_TOL", "TOL", "track_path", "tracking_lm"]
 
 LOST = 0.01
 """A tracked hand this far from its target position [m] is lost and looked for again."""
+TOL = 1e-9
+"""``lm``'s position tolerance [m] in a retarget. Its default, 0.1 mm, leaves the hand up
+to that far off at random from frame to frame: noise that a third difference at 120 Hz
+turns into up to 5 % more jerk than the human's (1e-7 m still 0.1 % on a hand that
+barely moves); ``lm`` converges quadratically, so the tighter tolerance costs an
+iteration or two (``docs/benchmarks.md``)."""
+ROT_TOL = 1e-8
+"""``lm``'s orientation tolerance [rad] in a retarget (its default: 1e-3)."""
+
+
+def tracking_lm(**options: int) -> LM:
+    """``lm`` at the retarget's tolerances (:data:`TOL`, :data:`ROT_TOL`)."""
+    return LM(tol=TOL, rot_tol=ROT_TOL, **options)
 
 
 def track_path(
@@ -37,7 +50,7 @@ def track_path(
     """The tracked joints ``(F, n)`` of every frame (see the module), from the first
     frame's posture ``q_start``, with ``steps`` elbow steps per frame."""
     c = arm.chain
-    track, again = LM(restarts=0), LM()
+    track, again = tracking_lm(restarts=0), tracking_lm()
     w = elbow_weight(targets.bend)
     path = np.empty((len(targets.position), c.n))
     q = c.clip(q_start)
