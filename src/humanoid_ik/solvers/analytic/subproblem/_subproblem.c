@@ -3,10 +3,11 @@
    the subproblems, the families, the ranges; see its opening comment).
 
    Arm(...) holds an arm's numbers (ArmGeometry), nothing a call changes: any thread may
-   call it, and solve() runs without the GIL. solve() finds every solution, applies the ranges and writes the pick into the
-   caller's array; solutions() returns every solution; pose_errors() measures an answer
-   from MuJoCo's FK of it. Every buffer is checked (C-contiguous float64, its length)
-   before it is read. */
+   call it, and solve() runs without the GIL. solve() finds every solution, applies the
+   ranges and writes the pick into the caller's array; solutions() returns every
+   solution. The answer's errors are measured in Python, by core/measures.py, from
+   MuJoCo's FK of it. Every buffer is checked (C-contiguous float64, its length) before
+   it is read. */
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -150,35 +151,7 @@ fail4:
   return NULL;
 }
 
-PyDoc_STRVAR(pose_errors_doc,
-"pose_errors(site_position, site_rotation, target_position, target_quaternion)\n"
-"    -> (position_error, orientation_error)\n"
-"\n"
-"The errors of core/measures.pose_error from MuJoCo's FK of an answer (the site's\n"
-"position and row-major rotation): the distance [m] and the angle [rad] of the\n"
-"rotation from the site frame to the target's (in [0, pi]).");
-
-static PyObject* pose_errors(PyObject* self, PyObject* const* args, Py_ssize_t nargs) {
-  if (nargs != 4) {
-    PyErr_SetString(PyExc_TypeError, "pose_errors takes 4 arguments");
-    return NULL;
-  }
-  const char* names[4] = {"site_position", "site_rotation", "target_position", "target_quaternion"};
-  Py_ssize_t sizes[4] = {3, 9, 3, 4};
-  Py_buffer v[4];
-  for (int i = 0; i < 4; i++)
-    if (get_array(args[i], &v[i], sizes[i], 0, names[i]) < 0) {
-      for (int j = 0; j < i; j++) PyBuffer_Release(&v[j]);
-      return NULL;
-    }
-  double ep, er;
-  sp_pose_errors(v[0].buf, v[1].buf, v[2].buf, v[3].buf, &ep, &er);
-  for (int i = 0; i < 4; i++) PyBuffer_Release(&v[i]);
-  return Py_BuildValue("(dd)", ep, er);
-}
-
 static PyMethodDef module_methods[] = {
-    {"pose_errors", (PyCFunction)(void (*)(void))pose_errors, METH_FASTCALL, pose_errors_doc},
     {NULL, NULL, 0, NULL},
 };
 

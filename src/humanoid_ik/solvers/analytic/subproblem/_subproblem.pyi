@@ -41,11 +41,3 @@ class Arm:
         out: NDArray[np.float64],
         /,
     ) -> tuple[int, int]: ...
-
-def pose_errors(
-    site_position: NDArray[np.float64],
-    site_rotation: NDArray[np.float64],
-    target_position: NDArray[np.float64],
-    target_quaternion: NDArray[np.float64],
-    /,
-) -> tuple[float, float]: ...

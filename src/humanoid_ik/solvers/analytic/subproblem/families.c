@@ -418,16 +418,3 @@ int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* L, con
   if (!inside && n) memcpy(out, near, sizeof near);
   return inside;
 }
-
-void sp_pose_errors(const double* p, const double* R, const double* pt, const double* qt,
-                    double* ep, double* er) {
-  double d[3], Rt[9], D[9];
-  sub(pt, p, d);
-  quat_mat(qt, Rt);
-  for (int i = 0; i < 3; i++) /* D = Rt R' */
-    for (int j = 0; j < 3; j++)
-      D[3 * i + j] = Rt[3 * i] * R[3 * j] + Rt[3 * i + 1] * R[3 * j + 1] + Rt[3 * i + 2] * R[3 * j + 2];
-  double w[3] = {0.5 * (D[7] - D[5]), 0.5 * (D[2] - D[6]), 0.5 * (D[3] - D[1])};
-  *ep = norm(d);
-  *er = atan2(norm(w), 0.5 * (D[0] + D[4] + D[8] - 1.0));
-}

@@ -11,12 +11,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.analytic.closed_form.numeric import RANGE_TOL
-from humanoid_ik.solvers.analytic.subproblem._subproblem import pose_errors
 from humanoid_ik.solvers.analytic.subproblem.geometry import subproblem_cache
-from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.base import Solver, error_buffers
 from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["Subproblem", "SubproblemOptions", "solutions"]
@@ -80,7 +80,9 @@ class Subproblem(Solver):
             target.position, quat, base, q0, chain.lower, chain.upper, RANGE_TOL, q
         )
         chain.set_q(q)  # the scratch data at the answer; MuJoCo's FK of it measured
-        ep, er = pose_errors(chain.position, chain.rotation, target.position, quat)
+        ep, er = pose_error(
+            chain.position, chain.rotation, target.position, quat, *error_buffers(chain)
+        )
         message = ""
         if inside:
             o = self.options

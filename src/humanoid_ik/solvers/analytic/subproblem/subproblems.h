@@ -36,9 +36,6 @@ int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* lower,
 
 /* the distance [m] and the rotation angle [rad, 0..pi] from a frame (position, row-major
    rotation) to a target (position, wxyz quaternion) */
-void sp_pose_errors(const double* p, const double* R, const double* pt, const double* qt,
-                    double* ep, double* er);
-
 /* the subproblems (subproblems.c): sp1 returns how well its angle is defined (0: any),
    the others how many solutions they wrote */
 double sp1(const double* k, const double* p, const double* q, double* t);
