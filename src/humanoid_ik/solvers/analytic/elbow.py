@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.names import name_words
 from humanoid_ik.core.rotations import axes_meeting_point, axis_angle_matrix
+from humanoid_ik.core.types import Status
 
 __all__ = [
     "POLE_TOL",
@@ -47,6 +48,7 @@ __all__ = [
     "pole_angle",
     "pole_turns",
     "pole_search",
+    "pole_verdict",
 ]
 
 T = TypeVar("T")
@@ -203,27 +205,34 @@ def pole_turns(points: ArmPoints, axis: ArrayLike, pole: ArrayLike) -> list[floa
 
 
 def pole_search(
+    chain: Chain,
     solve: Callable[[float], T],
-    points: Callable[[T], ArmPoints],
+    shoulder: ArrayLike,
     frame: tuple[ArrayLike, ArrayLike, ArrayLike],
     pole: NDArray[np.float64],
-    first: float,
     tries: int = 4,
-) -> tuple[T, float, float]:
+) -> tuple[T, float, float] | None:
     """The answer of ``solve(psi)`` (a swivel or twist [rad] about ``n`` of ``frame =
-    (n, r, k)``, 0 toward ``r``) that honours ``pole``, searched from ``first``.
+    (n, r, k)``, 0 toward ``r``) that honours ``pole``, searched from the pole's own
+    angle about ``n`` seen from ``shoulder``; ``None`` where the pole lies on that line.
 
-    Each answer's :func:`pole_turns` give the swivels that would put the pole in its
-    plane (exact while the elbow branch stays: the arm turns rigidly about ``n``); they
-    are solved in turn until one is honoured (within :data:`POLE_TOL`) or ``tries``
-    solves are spent.
+    ``solve`` leaves the chain at its answer. Each answer's :func:`pole_turns` give the
+    swivels that would put the pole in its plane (exact while the elbow branch stays:
+    the arm turns rigidly about ``n``); they are solved in turn until one is honoured
+    (within :data:`POLE_TOL`) or ``tries`` solves are spent.
 
     Returns:
         ``(answer, its swivel asked for, its pole_angle)``, the nearest found.
     """
     n, r, k = (np.asarray(v, dtype=np.float64) for v in frame)
+    p = pole - np.array(shoulder)
+    x, y = float(p @ r), float(p @ k)
+    if math.hypot(x, y) < 1e-12 * max(1.0, float(np.linalg.norm(p))):
+        return None
+    first = math.atan2(y, x)
+    arm = elbow_frame(chain)
     res = solve(first)
-    pts = points(res)
+    pts = arm.points(chain)
     err = pole_angle(pts, pole)
     best = (res, first, math.pi if math.isnan(err) else err)
     tried = [first]
@@ -243,7 +252,7 @@ def pole_search(
             continue
         tried.append(want)
         res = solve(want)
-        got = points(res)
+        got = arm.points(chain)
         err = pole_angle(got, pole)
         err = math.pi if math.isnan(err) else err
         if err < best[2]:
@@ -251,3 +260,11 @@ def pole_search(
         if err > POLE_TOL:
             fresh = got
     return best
+
+
+def pole_verdict(err: float, status: Status, otherwise: str) -> str:
+    """``details["pole"]`` of an answer at ``err`` [rad] from its pole: ``honoured``, not
+    honoured where the target is unreachable, else ``otherwise`` (why not)."""
+    if err <= POLE_TOL:
+        return "honoured"
+    return "not honoured: the target is unreachable" if status is Status.UNREACHABLE else otherwise

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import axis_angle_matrix, quat_to_mat
 from humanoid_ik.errors import TargetError
+from humanoid_ik.solvers.analytic.closed_form import swivel as sw
 from humanoid_ik.solvers.analytic.closed_form.geometry import ArmContext, Forearm, arm_context
 from humanoid_ik.solvers.analytic.closed_form.joints import (
     GIMBAL,
@@ -29,26 +30,8 @@ from humanoid_ik.solvers.analytic.closed_form.joints import (
     shoulder_rotation,
 )
 from humanoid_ik.solvers.analytic.closed_form.numeric import ARRAYS, RANGE_TOL, Vec, dot, sub
-from humanoid_ik.solvers.analytic.closed_form.swivel import (
-    arm_frame,
-    decompose,
-    elbow_branches,
-    feasible,
-    hand_forearm,
-    hand_frames,
-    range_end_roots,
-    rest_direction,
-    shoulder_coefficients,
-    shoulder_target,
-    start_elbow,
-    start_swivel,
-    swivel_frame,
-    wrist_coefficients,
-    wrist_target,
-)
 
 __all__ = [
-    "CHUNK",
     "BatchSolution",
     "Rows",
     "Setup",
@@ -58,7 +41,6 @@ __all__ = [
     "feasible_rows",
     "candidates",
     "solve_chunk",
-    "target_arrays",
     "starts",
     "solve_batch",
 ]
@@ -141,18 +123,18 @@ def setup(
     if R_t is not None:
         R_rows = tuple(_cols(R_t[:, i, :]) for i in range(3))
         fa: Forearm = ctx.forearm
-        t = wrist_target(ctx, p, R_rows)
+        t = sw.wrist_target(ctx, p, R_rows)
         q_wrist = None
     else:
         q_wrist = np.clip(q0[:, 4:], ctx.lower[4:], ctx.upper[4:])
-        fa = hand_forearm(xp, ctx, _cols(np.cos(q_wrist)), _cols(np.sin(q_wrist)))
+        fa = sw.hand_forearm(xp, ctx, _cols(np.cos(q_wrist)), _cols(np.sin(q_wrist)))
         t = sub(p, ctx.S)
     r2 = dot(t, t)
     r = np.sqrt(r2)
     cos_e = (fa.L2 - r2) / fa.den
     r_min, r_max = np.broadcast_to(fa.r_min, (N,)), np.broadcast_to(fa.r_max, (N,))
     miss = np.where(np.abs(cos_e) > 1.0, np.maximum(np.maximum(r - r_max, r_min - r), 0.0), 0.0)
-    plus, minus, distinct2 = elbow_branches(xp, ctx, fa, cos_e)
+    plus, minus, distinct2 = sw.elbow_branches(xp, ctx, fa, cos_e)
     q4 = np.stack([plus, minus], axis=1)  # (N, 2)
     distinct = np.ones((N, 2), dtype=bool)
     distinct[:, 1] = distinct2
@@ -165,10 +147,10 @@ def setup(
     else:
         least = np.arange(2) == np.argmin(el_key, axis=1)[:, None]
         kept = usable | (~usable.any(axis=1, keepdims=True) & least)
-    n, rr, kk = swivel_frame(xp, ctx, t, lambda: rest_direction(xp, ctx, fa))
+    n, rr, kk = sw.swivel_frame(xp, ctx, t, lambda: sw.rest_direction(xp, ctx, fa))
     if swivel is None:
-        e = start_elbow(ctx, _cols(np.cos(q0[:, :3])), _cols(np.sin(q0[:, :3])))
-        cp, sp = start_swivel(xp, e, rr, kk)
+        e = sw.start_elbow(ctx, _cols(np.cos(q0[:, :3])), _cols(np.sin(q0[:, :3])))
+        cp, sp = sw.start_swivel(xp, e, rr, kk)
     else:
         cp, sp = np.cos(swivel), np.sin(swivel)
     full = np.flatnonzero(kept.reshape(2 * N))
@@ -199,36 +181,26 @@ def _row_coefficients(
     if not isinstance(fa.L2, float):  # one forearm point per target
         fa = Forearm(*(at(f) if isinstance(f, tuple) else f[target] for f in fa))
     ce, se = np.cos(q4), np.sin(q4)
-    a, b, cv = arm_frame(xp, ctx, fa, n, ce, se)
-    ksh = _stack(shoulder_coefficients(ctx, shoulder_target(ctx, n, r, k), a, b, cv), M)
+    a, b, cv = sw.arm_frame(xp, ctx, fa, n, ce, se)
+    ksh = _stack(sw.triple_coefficients(ctx.sh, sw.triple_target(ctx.sh, n, r, k), a, b, cv), M)
     kwr = None
     if R_rows is not None:
-        hand = hand_frames(ctx, tuple(at(row) for row in R_rows), n, r, k)
-        kwr = _stack(wrist_coefficients(ctx, hand, ce, se, a, b, cv), M)
+        hand = sw.hand_frames(ctx, tuple(at(row) for row in R_rows), n, r, k)
+        kwr = _stack(sw.wrist_coefficients(ctx, hand, ce, se, a, b, cv), M)
     frame = np.array([[np.broadcast_to(x, (M,)) for x in v] for v in (n, r, k, a, b, cv)])
     return frame, ksh, kwr
 
 
 def take(rows: Rows, idx: NDArray[np.int64]) -> Rows:
-    """The rows ``idx``."""
-    return Rows(
-        rows.full[idx],
-        rows.target[idx],
-        rows.q4[idx],
-        rows.usable[idx],
-        rows.frame[:, :, idx],
-        rows.ksh[:, idx],
-        None if rows.kwr is None else rows.kwr[:, idx],
-        rows.cp[idx],
-        rows.sp[idx],
-    )
+    """The rows ``idx`` (every field indexed on its last axis)."""
+    return Rows._make(None if f is None else f[..., idx] for f in rows)
 
 
 def feasible_rows(ctx: ArmContext, rows: Rows, c: NDArray, s: NDArray) -> NDArray[np.bool_]:
     """Every joint inside its range at swivels ``(cos, sin)`` of shape ``(M, K)``."""
-    ok = feasible(decompose(xp, ctx.sh, rows.ksh[:, :, None], c, s)) & rows.usable[:, None]
+    ok = sw.feasible(sw.decompose(xp, ctx.sh, rows.ksh[:, :, None], c, s)) & rows.usable[:, None]
     if rows.kwr is not None:
-        ok = ok & feasible(decompose(xp, ctx.wr, rows.kwr[:, :, None], c, s))
+        ok = ok & sw.feasible(sw.decompose(xp, ctx.wr, rows.kwr[:, :, None], c, s))
     return np.broadcast_to(ok, np.broadcast_shapes(np.shape(c), (rows.full.size, 1)))
 
 
@@ -236,9 +208,9 @@ def candidates(ctx: ArmContext, rows: Rows) -> tuple[NDArray, NDArray, NDArray, 
     """Every swivel where some hinge meets a range end: the distance key to the
     preferred swivel (``inf`` where there is no root), ``cos, sin, valid``, each
     ``(M, K)``."""
-    roots = range_end_roots(xp, ctx.sh, rows.ksh, rows.cp, rows.sp)
+    roots = sw.range_end_roots(xp, ctx.sh, rows.ksh, rows.cp, rows.sp)
     if rows.kwr is not None:
-        roots += range_end_roots(xp, ctx.wr, rows.kwr, rows.cp, rows.sp)
+        roots += sw.range_end_roots(xp, ctx.wr, rows.kwr, rows.cp, rows.sp)
     M = rows.full.size
     if not roots:
         z = np.zeros((M, 0))
@@ -357,7 +329,7 @@ def _joint_angles(
     rows = st.rows
     tri = ctx.wr if wrist else ctx.sh
     k = (rows.kwr if wrist else rows.ksh)[:, m]  # type: ignore[index]
-    dec = decompose(xp, tri, k, c, s)
+    dec = sw.decompose(xp, tri, k, c, s)
     pref = _cols(q_pref)
     plus = branch_angles(xp, tri, dec[2], dec[1], pref)
     minus = branch_angles(xp, tri, dec[3], dec[1], pref)

@@ -11,9 +11,10 @@ that moves the arm (a free base, a torso hinge) has moved since it was built.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import NamedTuple
+from collections.abc import Callable, Sequence
+from typing import Generic, NamedTuple, Protocol, TypeVar
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -41,6 +42,7 @@ __all__ = [
     "Forearm",
     "ArmContext",
     "StartMemo",
+    "Kept",
     "ArmCache",
     "MEET_TOL",
     "meeting",
@@ -51,6 +53,9 @@ __all__ = [
     "arm_context",
     "arm_geometry",
 ]
+
+T = TypeVar("T")
+C = TypeVar("C")
 
 
 MEET_TOL = 1e-7
@@ -124,26 +129,39 @@ def structure_problem(chain: Chain) -> str | None:
             f"{chain.n} joint(s)"
         )
     anchors, axes = chain.joint_axes_at(np.zeros(chain.n))
-    S, miss = meeting(anchors[:3], axes[:3])
-    if S is None:
-        return (
-            "closed_form needs the first three hinge axes to meet at one point (a shoulder): "
-            + missed_by(miss)
-        )
-    W, miss = meeting(anchors[4:], axes[4:])
-    if W is None:
-        return (
-            "closed_form needs the last three hinge axes to meet at one point (a wrist): "
-            + missed_by(miss)
-        )
-    E, u = anchors[3], axes[3]
-    for name, point in (("shoulder", S), ("wrist", W)):
-        if float(np.linalg.norm(np.cross(point - E, u))) < 1e-9:
+    points = {}
+    for name, which, part in (("shoulder", "first", slice(0, 3)), ("wrist", "last", slice(4, 7))):
+        P, miss = meeting(anchors[part], axes[part])
+        if P is None:
+            return (
+                f"closed_form needs the {which} three hinge axes to meet at one point (a "
+                f"{name}): " + missed_by(miss)
+            )
+        points[name] = P
+    for name, P in points.items():
+        if off_line(P, anchors[3], axes[3]) < 1e-9:
             return f"closed_form needs an elbow axis that does not pass through the {name} point"
-    for name, ax in (("shoulder", axes[:3]), ("wrist", axes[4:])):
-        if abs(float(ax[0] @ ax[1])) > 1 - 1e-9 or abs(float(ax[1] @ ax[2])) > 1 - 1e-9:
+    for name, part in (("shoulder", slice(0, 3)), ("wrist", slice(4, 7))):
+        if parallel_neighbours(axes[part]):
             return f"closed_form needs {name} axes whose neighbours are not parallel"
     return None
+
+
+def off_line(point: NDArray, anchor: NDArray, axis: NDArray) -> float:
+    """Distance [m] from ``point`` to the line ``anchor + s axis`` (unit ``axis``)."""
+    return float(np.linalg.norm(np.cross(point - anchor, axis)))
+
+
+def parallel_neighbours(axes: NDArray) -> bool:
+    """Two neighbouring unit axes are parallel (``1 - |cos| < 1e-9``)."""
+    return any(abs(float(axes[i] @ axes[i + 1])) > 1.0 - 1e-9 for i in range(len(axes) - 1))
+
+
+def gravity_down(model: mujoco.MjModel) -> NDArray[np.float64]:
+    """The model's unit gravity (world ``-z`` where it is zero): the swivel's zero."""
+    g = np.asarray(model.opt.gravity, dtype=np.float64)
+    gn = float(np.linalg.norm(g))
+    return g / gn if gn > 0 else np.array([0.0, 0.0, -1.0])
 
 
 def read_geometry(chain: Chain) -> ArmGeometry:
@@ -156,9 +174,6 @@ def read_geometry(chain: Chain) -> ArmGeometry:
     chain.set_q(q_keep)
     S, W = meeting(anchors[:3], axes[:3])[0], meeting(anchors[4:], axes[4:])[0]
     assert S is not None and W is not None
-    g = np.asarray(chain.model.opt.gravity, dtype=np.float64)
-    gn = float(np.linalg.norm(g))
-    down = g / gn if gn > 0 else np.array([0.0, 0.0, -1.0])
     return ArmGeometry(
         shoulder=S,
         shoulder_axes=axes[:3].copy(),
@@ -169,7 +184,7 @@ def read_geometry(chain: Chain) -> ArmGeometry:
         hand_offset=R0.T @ (p0 - W),
         R_ee0=R0,
         p_ee0=p0,
-        down=down,
+        down=gravity_down(chain.model),
     )
 
 
@@ -304,6 +319,15 @@ class Forearm(NamedTuple):
     r_max: Real
     """Outer radius [m]: ``sqrt((l1 + l2)^2 + h^2)``."""
 
+    def at(self, S: Vec, c: Real, s: Real) -> Vec:
+        """``P(q4) - S`` at ``(cos q4, sin q4) = (c, s)``."""
+        Pc, Pa, Pb = self.Pc, self.Pa, self.Pb
+        return (
+            Pc[0] + c * Pa[0] + s * Pb[0] - S[0],
+            Pc[1] + c * Pa[1] + s * Pb[1] - S[1],
+            Pc[2] + c * Pa[2] + s * Pb[2] - S[2],
+        )
+
 
 def forearm(xp: Arithmetic, S: Vec, E: Vec, ue: Vec, P: Vec) -> Forearm:
     """The :class:`Forearm` of point ``P`` (at zero) for shoulder ``S``, elbow anchor
@@ -338,6 +362,12 @@ def forearm(xp: Arithmetic, S: Vec, E: Vec, ue: Vec, P: Vec) -> Forearm:
 
 
 # ------------------------------------------------------------------------------ the context
+class Gravity(Protocol):
+    """A context with the model's unit gravity (:class:`ArmContext`, ``two_link``'s)."""
+
+    down: Vec
+
+
 class ArmContext:
     """An :class:`ArmGeometry` and the float constants derived from it, for one chain."""
 
@@ -374,7 +404,8 @@ class ArmContext:
 class StartMemo:
     """The last start seen by a one-target solve and what it gives (the elbow's place,
     the hand's forearm point): solves from one start again and again (a bench, a still
-    arm) do not recompute them. Only the single-target path reads and writes it."""
+    arm) do not recompute them. Only one-target solves read and write it (``closed_form``'s
+    float path, ``two_link``'s start elbow)."""
 
     def __init__(self) -> None:
         self.shoulder: tuple = ((), None)
@@ -382,36 +413,61 @@ class StartMemo:
         self.wrist: tuple = ((), None)
         """``(start wrist angles, Forearm of the end effector)``."""
 
+    def get(self, slot: str, angles: Sequence[float], make: Callable[[Vec, Vec], T]) -> T:
+        """``make(cos, sin)`` of the three ``angles`` [rad], kept in ``slot`` for the
+        same angles next time."""
+        key = tuple(angles)
+        kept = getattr(self, slot)
+        if kept[0] == key:
+            return kept[1]
+        got = make(tuple(map(math.cos, key)), tuple(map(math.sin, key)))  # type: ignore[arg-type]
+        setattr(self, slot, (key, got))
+        return got
+
 
 # ------------------------------------------------------------------------------ the cache
-class ArmCache:
-    """What the closed form keeps with a chain (built once by :meth:`Chain.derived`).
+class Kept(Generic[C]):
+    """What an exact solver keeps with a chain (built once by :meth:`Chain.derived`):
+    why it does not apply (``reason``, ``None`` if it does) and its context.
 
-    The structure check never goes stale (a chain's joints are fixed). The
-    :class:`ArmContext` is read in world coordinates, so it is rebuilt when a joint on
-    the end effector's path that is not in the chain (a free base, a torso hinge) has
-    moved since it was read; that is the only rule.
+    The structure check never goes stale (a chain's joints are fixed). The context is
+    read in world coordinates, so it is read again when a joint on the end effector's
+    path that is not in the chain (a free base, a torso hinge, a wrist left out of the
+    chain) has moved since it was read; that is the only rule.
     """
 
-    def __init__(self, chain: Chain):
-        self.reason = structure_problem(chain)
-        """Why the closed form does not apply to the chain, or ``None``."""
-        self.seen: list[float] | None = None
-        self.context: ArmContext | None = None
+    reason: str | None
+    seen: list[float] | None = None
+    context: C | None = None
 
-    def current(self, chain: Chain) -> ArmContext:
-        """The chain's :class:`ArmContext`, read again if the arm's base has moved.
+    def read(self, chain: Chain) -> C:
+        """The context, read from MuJoCo."""
+        raise NotImplementedError
+
+    def current(self, chain: Chain) -> C:
+        """The chain's context, read again if the arm's base has moved.
 
         Raises:
-            SolverError: the chain has no spherical shoulder, elbow and spherical wrist.
+            SolverError: the solver does not apply to the chain (the reason).
         """
         if self.reason is not None:
             raise SolverError(self.reason)
         seen = chain.base_state()
         if self.context is None or seen != self.seen:
-            self.context = ArmContext(read_geometry(chain), chain.lower, chain.upper)
+            self.context = self.read(chain)
             self.seen = seen
         return self.context
+
+
+class ArmCache(Kept[ArmContext]):
+    """What the closed form keeps with a chain: its structure check and
+    :class:`ArmContext` (:class:`Kept`)."""
+
+    def __init__(self, chain: Chain):
+        self.reason = structure_problem(chain)
+
+    def read(self, chain: Chain) -> ArmContext:
+        return ArmContext(read_geometry(chain), chain.lower, chain.upper)
 
 
 def arm_cache(chain: Chain) -> ArmCache:

@@ -23,19 +23,16 @@ from humanoid_ik.solvers.analytic.closed_form.geometry import Triple
 from humanoid_ik.solvers.analytic.closed_form.numeric import (
     ARRAYS,
     RANGE_TOL,
-    TWO_PI,
     Arithmetic,
     Real,
     Vec,
     into_range,
 )
-from humanoid_ik.solvers.analytic.closed_form.swivel import Decomposition
 
 __all__ = [
     "GIMBAL",
     "Angles",
     "branch_angles",
-    "best_branch",
     "choose",
     "shoulder_rotation",
     "gimbal_angles",
@@ -61,12 +58,12 @@ def branch_angles(
     violation ``max_j max(lo_j - q_j, q_j - hi_j, 0)``.
     """
     x1, y1, c2, s2, x3, y3, _ = branch
-    rnd, top = xp.round, xp.maximum
-    lo, hi, mid, kind = tri.lower, tri.upper, tri.center, tri.kind
-    a, b, c = xp.atan2(y1, x1), xp.atan2(s2, c2), xp.atan2(y3, x3)
-    a = a + TWO_PI * rnd(((mid[0] if kind[0] else q_pref[0]) - a) / TWO_PI)
-    b = b + TWO_PI * rnd(((mid[1] if kind[1] else q_pref[1]) - b) / TWO_PI)
-    c = c + TWO_PI * rnd(((mid[2] if kind[2] else q_pref[2]) - c) / TWO_PI)
+    top = xp.maximum
+    mid = [m if k else p for m, k, p in zip(tri.center, tri.kind, q_pref, strict=True)]
+    lo, hi = tri.lower, tri.upper
+    a = into_range(xp, xp.atan2(y1, x1), mid[0])
+    b = into_range(xp, xp.atan2(s2, c2), mid[1])
+    c = into_range(xp, xp.atan2(y3, x3), mid[2])
     viol = top(top(top(lo[0] - a, a - hi[0]), top(lo[1] - b, b - hi[1])), top(lo[2] - c, c - hi[2]))
     viol = top(viol, 0.0)
     key = abs(a - q_pref[0]) + abs(b - q_pref[1]) + abs(c - q_pref[2])
@@ -82,28 +79,6 @@ def choose(xp: Arithmetic, first: Angles, second: Angles) -> Angles:
     qa, qb = first[0], second[0]
     q = (xp.where(pick, qb[0], qa[0]), xp.where(pick, qb[1], qa[1]), xp.where(pick, qb[2], qa[2]))
     return q, xp.where(pick, second[1], first[1]), xp.where(pick, second[2], first[2])
-
-
-def best_branch(
-    xp: Arithmetic,
-    tri: Triple,
-    dec: Decomposition,
-    q_pref: Sequence[Real],
-    inside_only: bool = False,
-) -> Angles | None:
-    """The branch inside the ranges closest to ``q_pref``, else the least violating.
-
-    Args:
-        inside_only: only branches inside their ranges somewhere are read (the others
-            cannot be kept at a feasible swivel); ``None`` when there is none.
-    """
-    plus, minus = dec[2], dec[3]
-    if inside_only and not xp.any(minus[6]):
-        return branch_angles(xp, tri, plus, dec[1], q_pref) if xp.any(plus[6]) else None
-    minus_angles = branch_angles(xp, tri, minus, dec[1], q_pref)
-    if inside_only and not xp.any(plus[6]):
-        return minus_angles
-    return choose(xp, branch_angles(xp, tri, plus, dec[1], q_pref), minus_angles)
 
 
 # ------------------------------------------------------------------------------ gimbal lock

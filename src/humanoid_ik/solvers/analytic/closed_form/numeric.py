@@ -115,7 +115,7 @@ def vec(v: Any) -> Vec:
     return float(v[0]), float(v[1]), float(v[2])
 
 
-def sub(a: Vec, b: Vec) -> Vec:
+def sub(a: Sequence[Real], b: Sequence[Real]) -> Vec:
     """``a - b``."""
     return a[0] - b[0], a[1] - b[1], a[2] - b[2]
 

@@ -16,27 +16,10 @@ import math
 from collections.abc import Callable
 from operator import itemgetter
 
-from humanoid_ik.solvers.analytic.closed_form.geometry import ArmContext, Forearm, Triple
-from humanoid_ik.solvers.analytic.closed_form.joints import GIMBAL, best_branch
-from humanoid_ik.solvers.analytic.closed_form.numeric import FLOATS, RANGE_TOL, Vec
-from humanoid_ik.solvers.analytic.closed_form.swivel import (
-    Coefficients,
-    Decomposition,
-    arm_frame,
-    decompose,
-    elbow_branches,
-    hand_forearm,
-    hand_frames,
-    range_end_roots,
-    rest_direction,
-    shoulder_coefficients,
-    shoulder_target,
-    start_elbow,
-    start_swivel,
-    swivel_frame,
-    wrist_coefficients,
-    wrist_target,
-)
+from humanoid_ik.solvers.analytic.closed_form import swivel as sw
+from humanoid_ik.solvers.analytic.closed_form.geometry import ArmContext, Triple
+from humanoid_ik.solvers.analytic.closed_form.joints import GIMBAL, branch_angles, choose
+from humanoid_ik.solvers.analytic.closed_form.numeric import FLOATS, RANGE_TOL, Vec, dot, sub
 
 __all__ = ["Fallback", "solve_one"]
 
@@ -74,40 +57,37 @@ def solve_one(
         Fallback: the target is out of reach, out of range, or a joint is near its
             gimbal lock.
     """
-    S = ctx.S
     along: Vec | Callable[[], Vec]
     if rotation is not None:
         fa = ctx.forearm
-        t = wrist_target(ctx, position, rotation)
+        t = sw.wrist_target(ctx, position, rotation)
         along = ctx.rest
     else:
-        fa = _hand(ctx, q0)
-        t = (position[0] - S[0], position[1] - S[1], position[2] - S[2])
-        along = lambda: rest_direction(xp, ctx, fa)  # noqa: E731
-    cos_e = (fa.L2 - (t[0] * t[0] + t[1] * t[1] + t[2] * t[2])) / fa.den
+        fa = ctx.memo.get("wrist", q0[4:], lambda c, s: sw.hand_forearm(xp, ctx, c, s))
+        t = sub(position, ctx.S)
+        along = lambda: sw.rest_direction(xp, ctx, fa)  # noqa: E731
+    cos_e = (fa.L2 - dot(t, t)) / fa.den
     if cos_e > 1.0 or cos_e < -1.0:
         raise Fallback
-    plus, minus, distinct = elbow_branches(xp, ctx, fa, cos_e)
+    plus, minus, distinct = sw.elbow_branches(xp, ctx, fa, cos_e)
     lo, hi = ctx.elbow_lo - RANGE_TOL, ctx.elbow_hi + RANGE_TOL
-    elbows = []
-    for q4 in (plus, minus) if distinct else (plus,):
-        if lo <= q4 <= hi:
-            elbows.append(q4)
+    elbows = [q4 for q4 in ((plus, minus) if distinct else (plus,)) if lo <= q4 <= hi]
     if not elbows:
         raise Fallback
-    n, r, k = swivel_frame(xp, ctx, t, along)
+    n, r, k = sw.swivel_frame(xp, ctx, t, along)
     if swivel is None:
-        cp, sp = start_swivel(xp, _start_elbow(ctx, q0), r, k)
+        e = ctx.memo.get("shoulder", q0[:3], lambda c, s: sw.start_elbow(ctx, c, s))
+        cp, sp = sw.start_swivel(xp, e, r, k)
     else:
         cp, sp = math.cos(swivel), math.sin(swivel)
-    sh_target = shoulder_target(ctx, n, r, k)
-    hand = None if rotation is None else hand_frames(ctx, rotation, n, r, k)
+    sh_target = sw.triple_target(ctx.sh, n, r, k)
+    hand = None if rotation is None else sw.hand_frames(ctx, rotation, n, r, k)
     best = None  # (distance key, elbow key, q4, cos, sin, shoulder, wrist decompositions)
     for q4 in elbows:
         ce, se = math.cos(q4), math.sin(q4)
-        a, b, cv = arm_frame(xp, ctx, fa, n, ce, se)
-        ksh = shoulder_coefficients(ctx, sh_target, a, b, cv)
-        kwr = None if hand is None else wrist_coefficients(ctx, hand, ce, se, a, b, cv)
+        a, b, cv = sw.arm_frame(xp, ctx, fa, n, ce, se)
+        ksh = sw.triple_coefficients(ctx.sh, sh_target, a, b, cv)
+        kwr = None if hand is None else sw.wrist_coefficients(ctx, hand, ce, se, a, b, cv)
         found = _nearest_feasible(ctx, ksh, kwr, cp, sp, math.inf if best is None else best[0])
         if found is None:
             continue
@@ -129,8 +109,8 @@ def solve_one(
 
 def _nearest_feasible(
     ctx: ArmContext,
-    ksh: Coefficients,
-    kwr: Coefficients | None,
+    ksh: sw.Coefficients,
+    kwr: sw.Coefficients | None,
     cp: float,
     sp: float,
     best: float,
@@ -152,22 +132,22 @@ def _nearest_feasible(
             if dist > limit:
                 return None
             if kwr is None:
-                dsh = decompose(xp, sh, ksh, c, s, True)
+                dsh = sw.decompose(xp, sh, ksh, c, s, True)
                 if dsh is not None:
                     return dist, c, s, dsh, None
                 continue
             # the wrist first: at the range-end roots it is the more often outside
-            dwr = decompose(xp, wr, kwr, c, s, True)
+            dwr = sw.decompose(xp, wr, kwr, c, s, True)
             if dwr is not None:
-                dsh = decompose(xp, sh, ksh, c, s, True)
+                dsh = sw.decompose(xp, sh, ksh, c, s, True)
                 if dsh is not None:
                     return dist, c, s, dsh, dwr
         if roots is not None:
             return None
         # the preferred swivel failed: the range-end roots, nearest first
-        roots = range_end_roots(xp, sh, ksh, cp, sp)
+        roots = sw.range_end_roots(xp, sh, ksh, cp, sp)
         if kwr is not None:
-            roots += range_end_roots(xp, wr, kwr, cp, sp)
+            roots += sw.range_end_roots(xp, wr, kwr, cp, sp)
         roots.sort(key=_first)
         candidates = roots
 
@@ -175,38 +155,13 @@ def _nearest_feasible(
 _first = itemgetter(0)
 
 
-def _angles(tri: Triple, dec: Decomposition, q_pref: list[float]) -> list[float]:
-    """The kept branch's three angles (:func:`~.joints.best_branch`)."""
+def _angles(tri: Triple, dec: sw.Decomposition, q_pref: list[float]) -> list[float]:
+    """The three angles of the branch inside the ranges (of the two, the one closest to
+    ``q_pref``: :func:`~.joints.choose`)."""
     if 1.0 - dec[0] * dec[0] < GIMBAL:
         raise Fallback
-    got = best_branch(xp, tri, dec, q_pref, inside_only=True)
+    inside = [branch_angles(xp, tri, b, dec[1], q_pref) for b in dec[2:4] if b[6]]
+    got = choose(xp, *inside) if len(inside) == 2 else inside[0] if inside else None
     if got is None or got[1] > RANGE_TOL:
         raise Fallback
     return list(got[0])
-
-
-def _start_elbow(ctx: ArmContext, q0: list[float]) -> Vec:
-    """:func:`~.swivel.start_elbow` of the start, remembered for the next call
-    (:class:`~.geometry.StartMemo`)."""
-    key = (q0[0], q0[1], q0[2])
-    memo = ctx.memo
-    if memo.shoulder[0] == key:
-        return memo.shoulder[1]
-    c = (math.cos(key[0]), math.cos(key[1]), math.cos(key[2]))
-    s = (math.sin(key[0]), math.sin(key[1]), math.sin(key[2]))
-    e = start_elbow(ctx, c, s)
-    memo.shoulder = (key, e)
-    return e
-
-
-def _hand(ctx: ArmContext, q0: list[float]) -> Forearm:
-    """:func:`~.swivel.hand_forearm` of the start's wrist, remembered for the next call."""
-    key = (q0[4], q0[5], q0[6])
-    memo = ctx.memo
-    if memo.wrist[0] == key:
-        return memo.wrist[1]
-    c = (math.cos(key[0]), math.cos(key[1]), math.cos(key[2]))
-    s = (math.sin(key[0]), math.sin(key[1]), math.sin(key[2]))
-    fa = hand_forearm(xp, ctx, c, s)
-    memo.wrist = (key, fa)
-    return fa

@@ -16,10 +16,10 @@ from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.analytic.closed_form.batch import solve_chunk
 from humanoid_ik.solvers.analytic.closed_form.geometry import ArmContext, arm_cache, arm_context
-from humanoid_ik.solvers.analytic.closed_form.numeric import FLOATS
+from humanoid_ik.solvers.analytic.closed_form.numeric import FLOATS, sub
 from humanoid_ik.solvers.analytic.closed_form.single import Fallback, solve_one
 from humanoid_ik.solvers.analytic.closed_form.swivel import swivel_frame, wrist_target
-from humanoid_ik.solvers.analytic.elbow import POLE_TOL, arm_points, elbow_frame, pole_search
+from humanoid_ik.solvers.analytic.elbow import arm_points, pole_search, pole_verdict
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.options import SolverOptions
 
@@ -68,7 +68,7 @@ class ClosedForm(Solver):
     An elbow pole (``Target.pole``) sets the swivel: the elbow in the plane of the
     shoulder, the wrist and the pole, on the pole's side (for a pose target the pole's
     own angle about the shoulder-wrist line; for a position target, whose wrist is off
-    the swivel's axis, that angle corrected once by :func:`~..elbow.pole_turn`). Where
+    the swivel's axis, that angle corrected by :func:`~..elbow.pole_search`). Where
     the ranges forbid that swivel the nearest feasible one is taken. ``details`` give
     ``pole_swivel`` (wanted), ``swivel`` (taken), ``pole_error`` [rad]
     (:func:`~..elbow.pole_angle` at the answer) and ``pole``: ``honoured``, or
@@ -116,32 +116,20 @@ class ClosedForm(Solver):
         if target.rotation is not None:
             t = wrist_target(ctx, target.position.tolist(), target.rotation.tolist())
         else:
-            t = (
-                float(target.position[0]) - S[0],
-                float(target.position[1]) - S[1],
-                float(target.position[2]) - S[2],
-            )
-        n, r, k = swivel_frame(FLOATS, ctx, t, ctx.rest)
-        p = pole - np.array(S)
-        x, y = float(p @ r), float(p @ k)
-        if math.hypot(x, y) < 1e-12 * max(1.0, float(np.linalg.norm(p))):
+            t = sub(target.position.tolist(), S)
+        _, r, k = nrk = swivel_frame(FLOATS, ctx, t, ctx.rest)
+        found = pole_search(
+            chain, lambda w: self._at(chain, target, q0, w, np.array([w])), S, nrk, pole
+        )
+        if found is None:
             res = self._at(chain, target, q0, self.options.swivel, self._psi)[0]
             return res.with_details(pole="undefined: the pole lies on the shoulder-wrist line")
-        frame = elbow_frame(chain)
-        (res, got), want, err = pole_search(
-            lambda w: self._at(chain, target, q0, w, np.array([w])),
-            lambda rg: frame.points(chain),  # _result left the chain at the answer
-            (n, r, k),
-            pole,
-            math.atan2(y, x),
-        )
+        (res, got), want, err = found
         pts = arm_points(chain, res.q)  # the chain at the answer
         if got is None:  # the batch driver: the swivel as the elbow shows it
             e = pts.elbow - pts.shoulder
             got = math.atan2(float(e @ k), float(e @ r))
-        how = "honoured" if err <= POLE_TOL else "nearest feasible swivel (joint ranges)"
-        if err > POLE_TOL and res.status is Status.UNREACHABLE:
-            how = "not honoured: the target is unreachable"
+        how = pole_verdict(err, res.status, "nearest feasible swivel (joint ranges)")
         return res.with_details(pole=how, pole_error=err, pole_swivel=want, swivel=got)
 
     def _at(
@@ -158,10 +146,9 @@ class ClosedForm(Solver):
         rot = None if target.rotation is None else target.rotation.tolist()
         try:
             q, got = solve_one(ctx, target.position.tolist(), rot, q0.tolist(), swivel)
-            return self._result(chain, target, np.array(q), 1), got
         except Fallback:
-            pass
-        return self._batch(chain, ctx, target, q0, psi), None
+            return self._batch(chain, ctx, target, q0, psi), None
+        return self._result(chain, target, np.array(q), 1), got
 
     def _batch(
         self,

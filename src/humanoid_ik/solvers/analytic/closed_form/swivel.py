@@ -33,6 +33,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.solvers.analytic.closed_form.geometry import (
     ArmContext,
     Forearm,
+    Gravity,
     Triple,
     arm_context,
     forearm,
@@ -66,8 +67,9 @@ __all__ = [
     "start_elbow",
     "start_swivel",
     "arm_frame",
-    "shoulder_target",
-    "shoulder_coefficients",
+    "limb_axes",
+    "triple_target",
+    "triple_coefficients",
     "hand_frames",
     "wrist_coefficients",
     "decompose",
@@ -138,32 +140,28 @@ def elbow_branches(xp: Arithmetic, ctx: ArmContext, fa: Forearm, cos_e: Real) ->
 
 
 def swivel_frame(
-    xp: Arithmetic, ctx: ArmContext, t: Vec, along: Vec | Callable[[], Vec]
+    xp: Arithmetic, ctx: Gravity, t: Vec, along: Vec | Callable[[], Vec]
 ) -> tuple[Vec, Vec, Vec]:
     """``(n, r, k)``: ``n = t / |t|`` (``along`` where ``t`` vanishes), ``r`` the unit
     part of gravity normal to ``n`` (world x, then y, where gravity is along ``n``),
     ``k = n x r``. The swivel ``psi = 0`` puts the elbow on the ``r`` side."""
     n = unit(xp, t, along)
-    r = perp_unit(xp, ctx.down, n, _XY)
+    r = perp_unit(xp, ctx.down, n, lambda: (X_AXIS, Y_AXIS))
     k = (n[1] * r[2] - n[2] * r[1], n[2] * r[0] - n[0] * r[2], n[0] * r[1] - n[1] * r[0])
     return n, r, k
 
 
-def _XY() -> tuple[Vec, Vec]:
-    return X_AXIS, Y_AXIS
-
-
-def shoulder_turn(ctx: ArmContext, c: Vec, s: Vec, v: Vec) -> Vec:
-    """``Rot(u1, q1) Rot(u2, q2) Rot(u3, q3) v``: ``v`` carried by the shoulder at angles
-    whose cosines and sines are ``c, s``."""
-    u1, u2, u3 = ctx.shoulder_axes
+def shoulder_turn(axes: Sequence[Vec], c: Vec, s: Vec, v: Vec) -> Vec:
+    """``Rot(u1, q1) Rot(u2, q2) Rot(u3, q3) v``: ``v`` carried by the shoulder hinges
+    ``axes`` at angles whose cosines and sines are ``c, s``."""
+    u1, u2, u3 = axes
     return rot(u1, c[0], s[0], rot(u2, c[1], s[1], rot(u3, c[2], s[2], v)))
 
 
 def start_elbow(ctx: ArmContext, c: Vec, s: Vec) -> Vec:
     """``R_sh(q0) (E - S)``: the start's elbow seen from the shoulder (``c, s``: cosines
     and sines of the start's shoulder angles)."""
-    return shoulder_turn(ctx, c, s, ctx.e_rest)
+    return shoulder_turn(ctx.shoulder_axes, c, s, ctx.e_rest)
 
 
 def start_swivel(xp: Arithmetic, e: Vec, r: Vec, k: Vec) -> tuple[Real, Real]:
@@ -184,43 +182,29 @@ def start_swivel(xp: Arithmetic, e: Vec, r: Vec, k: Vec) -> tuple[Real, Real]:
 def arm_frame(
     xp: Arithmetic, ctx: ArmContext, fa: Forearm, n: Vec, ce: Real, se: Real
 ) -> tuple[Vec, Vec, Vec]:
-    """``(a, b, cv)`` at elbow ``(cos q4, sin q4) = (ce, se)``, shoulder at zero:
-    ``a = unit(P(q4) - S)`` (``n`` if it vanishes), ``b`` the unit part of ``E - S``
+    """:func:`limb_axes` of ``P(q4) - S`` at elbow ``(cos q4, sin q4) = (ce, se)``."""
+    return limb_axes(xp, fa.at(ctx.S, ce, se), n, ctx.e_rest, ctx.ue)
+
+
+def limb_axes(xp: Arithmetic, d: Vec, n: Vec, e_rest: Vec, ue: Vec) -> tuple[Vec, Vec, Vec]:
+    """``(a, b, cv)`` of the limb ``d`` (the hand from the shoulder, shoulder at zero):
+    ``a = unit(d)`` (``n`` if it vanishes), ``b`` the unit part of the elbow ``e_rest``
     normal to ``a`` (``a x u_e``, world x, then y, if that vanishes), ``cv = a x b``."""
-    Pc, Pa, Pb, S = fa.Pc, fa.Pa, fa.Pb, ctx.S
-    d = (
-        Pc[0] + ce * Pa[0] + se * Pb[0] - S[0],
-        Pc[1] + ce * Pa[1] + se * Pb[1] - S[1],
-        Pc[2] + ce * Pa[2] + se * Pb[2] - S[2],
-    )
     a = unit(xp, d, n)
-    b = perp_unit(xp, ctx.e_rest, a, lambda: (cross(a, ctx.ue), X_AXIS, Y_AXIS))
-    cv = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-    return a, b, cv
+    b = perp_unit(xp, e_rest, a, lambda: (cross(a, ue), X_AXIS, Y_AXIS))
+    return a, b, cross(a, b)
 
 
-def shoulder_target(ctx: ArmContext, n: Vec, r: Vec, k: Vec) -> tuple[Real, ...]:
-    """``n, r, k`` read with the shoulder's ``e1, e2, u1``: 9 numbers, per target."""
-    rows = ctx.sh.y_rows
-    return (*proj(rows, n), *proj(rows, r), *proj(rows, k))
-
-
-def shoulder_coefficients(
-    ctx: ArmContext, target: tuple[Real, ...], a: Vec, b: Vec, cv: Vec
-) -> Coefficients:
-    """The shoulder's 15 :data:`Coefficients` (:func:`triple_coefficients` of the
-    shoulder's hinges).
-
-    Args:
-        target: :func:`shoulder_target` of the target's frame.
-    """
-    return triple_coefficients(ctx.sh.z_rows, target, a, b, cv)
+def triple_target(tri: Triple, n: Vec, r: Vec, k: Vec) -> tuple[Real, ...]:
+    """``n, r, k`` read with the triple's ``e1, e2, u1``: 9 numbers, per target."""
+    return (*proj(tri.y_rows, n), *proj(tri.y_rows, r), *proj(tri.y_rows, k))
 
 
 def triple_coefficients(
-    z_rows: Sequence[float], target: tuple[Real, ...], a: Vec, b: Vec, cv: Vec
+    tri: Triple, target: tuple[Real, ...], a: Vec, b: Vec, cv: Vec
 ) -> Coefficients:
-    """The 15 twist-linear :data:`Coefficients` of a spherical triple of hinges.
+    """The 15 twist-linear :data:`Coefficients` of a spherical triple of hinges (the
+    shoulder's, or a two-link arm's three-hinge shoulder).
 
     With ``(al, be, ga) = (a, b, cv) . u3`` and ``(m1, m2, m3) = (n, r, k) . u1``:
     ``y = n al + r (be c - ga s) + k (ga c + be s)`` and
@@ -228,20 +212,26 @@ def triple_coefficients(
     read with ``e1, e2, u1`` and ``f1, f2``.
 
     Args:
-        z_rows: the triple's reading rows, 9 numbers (``Triple.z_rows``).
-        target: ``n, r, k`` read with ``e1, e2, u1`` (9 numbers).
+        target: :func:`triple_target` of the target's frame.
     """
     ne1, ne2, m1, re1, re2, m2, ke1, ke2, m3 = target
+    z_rows = tri.z_rows
     al, af1, af2 = proj(z_rows, a)
     be, bf1, bf2 = proj(z_rows, b)
     ga, cf1, cf2 = proj(z_rows, cv)
     return (
-        al * ne1, be * re1 + ga * ke1, be * ke1 - ga * re1,
-        al * ne2, be * re2 + ga * ke2, be * ke2 - ga * re2,
-        al * m1, be * m2 + ga * m3, be * m3 - ga * m2,
-        m1 * af1, m2 * bf1 + m3 * cf1, m3 * bf1 - m2 * cf1,
-        m1 * af2, m2 * bf2 + m3 * cf2, m3 * bf2 - m2 * cf2,
-    )  # fmt: skip
+        *_linear(al, be, ga, ne1, re1, ke1),
+        *_linear(al, be, ga, ne2, re2, ke2),
+        *_linear(al, be, ga, m1, m2, m3),
+        *_linear(af1, bf1, cf1, m1, m2, m3),
+        *_linear(af2, bf2, cf2, m1, m2, m3),
+    )
+
+
+def _linear(x: Real, y: Real, z: Real, p: Real, q: Real, r: Real) -> tuple[Real, Real, Real]:
+    """``(const, cos, sin)`` of ``x p + (y c - z s) q + (z c + y s) r``: one reading's
+    three coefficients."""
+    return x * p, y * q + z * r, y * r - z * q
 
 
 def hand_frames(
@@ -280,12 +270,12 @@ def wrist_coefficients(
     bE1, bE2, H2 = proj(rows, b)
     cE1, cE2, H3 = proj(rows, cv)
     return (
-        aE1 * G1, bE1 * G2 + cE1 * G3, bE1 * G3 - cE1 * G2,
-        aE2 * G1, bE2 * G2 + cE2 * G3, bE2 * G3 - cE2 * G2,
-        H1 * G1, H2 * G2 + H3 * G3, H2 * G3 - H3 * G2,
-        H1 * nF1, H2 * rF1 + H3 * kF1, H2 * kF1 - H3 * rF1,
-        H1 * nF2, H2 * rF2 + H3 * kF2, H2 * kF2 - H3 * rF2,
-    )  # fmt: skip
+        *_linear(aE1, bE1, cE1, G1, G2, G3),
+        *_linear(aE2, bE2, cE2, G1, G2, G3),
+        *_linear(H1, H2, H3, G1, G2, G3),
+        *_linear(H1, H2, H3, nF1, rF1, kF1),
+        *_linear(H1, H2, H3, nF2, rF2, kF2),
+    )
 
 
 # ------------------------------------------------------------------------------ at a swivel
@@ -456,8 +446,7 @@ def swivel_angle(chain: Chain, q: ArrayLike) -> float:
     s = (math.sin(q1), math.sin(q2), math.sin(q3))
     e = start_elbow(ctx, c, s)
     fore = rot(ctx.ue, math.cos(q4), math.sin(q4), sub(ctx.W0, ctx.E))
-    t = shoulder_turn(
-        ctx, c, s, (ctx.e_rest[0] + fore[0], ctx.e_rest[1] + fore[1], ctx.e_rest[2] + fore[2])
-    )
+    v = (ctx.e_rest[0] + fore[0], ctx.e_rest[1] + fore[1], ctx.e_rest[2] + fore[2])
+    t = shoulder_turn(ctx.shoulder_axes, c, s, v)
     _, r, k = swivel_frame(FLOATS, ctx, t, X_AXIS)
     return math.atan2(dot(e, k), dot(e, r))

@@ -11,20 +11,25 @@ carries, so the hand's constants (:class:`Limb`) are kept per set of riding valu
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.analytic.closed_form.geometry import (
     MEET_TOL,
     Forearm,
+    Kept,
+    StartMemo,
     Triple,
     forearm,
+    gravity_down,
     meeting,
     missed_by,
+    off_line,
+    parallel_neighbours,
 )
 from humanoid_ik.solvers.analytic.closed_form.numeric import (
     FLOATS,
@@ -33,14 +38,14 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
     Vec,
     cross,
     dot,
-    rot,
+    into_range,
     sub,
     vec,
 )
+from humanoid_ik.solvers.analytic.closed_form.swivel import shoulder_turn
 
 __all__ = [
     "KINDS",
-    "MAX_WRIST",
     "Shell",
     "Limb",
     "LimbContext",
@@ -51,14 +56,10 @@ __all__ = [
     "place",
     "inside",
     "read_structure",
-    "held_wrist",
-    "wrist_problem",
 ]
 
 KINDS = {1: "planar", 2: "two_hinge", 3: "three_hinge"}
 """The shoulder kinds by number of shoulder hinges."""
-_PARALLEL = 1e-9  # 1 - |cos| below which two axes count as parallel
-_ON_AXIS = 1e-9  # [m]: an axis line this close to a point passes through it
 
 
 def law_of_cosines(l1: float, l2: float, r: float) -> float:
@@ -90,11 +91,6 @@ class Shell(NamedTuple):
 
 
 # ------------------------------------------------------------------------------ structure
-def _off_line(point: NDArray, anchor: NDArray, axis: NDArray) -> float:
-    """Distance [m] from ``point`` to the line ``anchor + s axis`` (unit ``axis``)."""
-    return float(np.linalg.norm(np.cross(point - anchor, axis)))
-
-
 def read_structure(chain: Chain) -> tuple[int, str | None]:
     """``(k, None)`` with ``k`` the number of shoulder hinges, or ``(0, reason)``.
 
@@ -122,13 +118,13 @@ def read_structure(chain: Chain) -> tuple[int, str | None]:
             if k == 3:
                 missed = "; " + missed_by(miss, "the first three")
             continue
-        if any(abs(float(axes[i] @ axes[i + 1])) > 1.0 - _PARALLEL for i in range(k - 1)):
+        if parallel_neighbours(axes[:k]):
             return 0, "two_link needs shoulder axes whose neighbours are not parallel"
-        if _off_line(S, anchors[k], axes[k]) < _ON_AXIS:
+        if off_line(S, anchors[k], axes[k]) < 1e-9:
             return 0, "two_link needs an elbow axis that does not pass through the shoulder"
         return _with_wrist(chain, anchors, axes, k)
-    if abs(float(axes[0] @ axes[1])) > 1.0 - _PARALLEL:
-        if _off_line(anchors[0], anchors[1], axes[1]) < _ON_AXIS:
+    if parallel_neighbours(axes[:2]):
+        if off_line(anchors[0], anchors[1], axes[1]) < 1e-9:
             return 0, (
                 "two_link needs an elbow axis that does not pass through the shoulder "
                 "(here it lies on the shoulder's axis)"
@@ -205,7 +201,7 @@ def held_wrist(chain: Chain, k: int) -> str | None:
     off = (
         float(np.linalg.norm(hand - W))
         if W is not None
-        else max(_off_line(hand, anchors[i], axes[i]) for i in rest)
+        else max(off_line(hand, anchors[i], axes[i]) for i in rest)
     )
     if off <= MEET_TOL:
         return None
@@ -283,14 +279,12 @@ class LimbContext:
         self.axes = tuple(vec(a) for a in axes[:k])
         self.E, self.ue = vec(anchors[k]), vec(axes[k])
         self.e_rest = sub(self.E, self.S)
-        g = np.asarray(chain.model.opt.gravity, dtype=np.float64)
-        gn = float(np.linalg.norm(g))
-        self.down = vec(g / gn) if gn > 0 else (0.0, 0.0, -1.0)
+        self.down = vec(gravity_down(chain.model))
         self.lower = tuple(float(x) for x in chain.lower)
         self.upper = tuple(float(x) for x in chain.upper)
         self.tri = Triple(axes[:3], chain.lower[:3], chain.upper[:3]) if k == 3 else None
         self._limbs: dict[tuple[float, ...], Limb] = {}
-        self._start: tuple[tuple[float, ...], Vec] = ((), (0.0, 0.0, 0.0))
+        self.memo = StartMemo()
 
     def limb(self, chain: Chain, riding: tuple[float, ...]) -> Limb:
         """The :class:`Limb` with the joints after the elbow at ``riding`` [rad].
@@ -315,14 +309,7 @@ class LimbContext:
     def start_elbow(self, q0: list[float]) -> Vec:
         """``R_sh(q0) (E - S)``: the start's elbow seen from a three-hinge shoulder
         (remembered for the last start)."""
-        key = (q0[0], q0[1], q0[2])
-        if self._start[0] == key:
-            return self._start[1]
-        v = self.e_rest
-        for j in (2, 1, 0):
-            v = rot(self.axes[j], math.cos(key[j]), math.sin(key[j]), v)
-        self._start = (key, v)
-        return v
+        return self.memo.get("shoulder", q0[:3], partial(shoulder_turn, self.axes, v=self.e_rest))
 
 
 # ------------------------------------------------------------------------------ ranges
@@ -337,7 +324,7 @@ def place(q: float, lo: float, hi: float, pref: float) -> float:
     if narrow and lo <= q <= hi:
         return q
     m = 0.5 * (lo + hi) if narrow else pref
-    x = q + TWO_PI * round((m - q) / TWO_PI)
+    x = into_range(FLOATS, q, m)
     if not narrow:
         if x < lo - RANGE_TOL:
             x += TWO_PI * math.ceil((lo - x) / TWO_PI)
@@ -352,14 +339,9 @@ def inside(q: float, lo: float, hi: float) -> bool:
 
 
 # ------------------------------------------------------------------------------ the cache
-class LimbCache:
-    """What ``two_link`` keeps with a chain (built once by :meth:`Chain.derived`).
-
-    The structure never goes stale (a chain's joints are fixed). The
-    :class:`LimbContext` is read in world coordinates, so it is read again when a joint
-    on the end effector's path that is not in the chain (a free base, a torso hinge, a
-    wrist left out of the chain) has moved since: that is the only rule.
-    """
+class LimbCache(Kept[LimbContext]):
+    """What ``two_link`` keeps with a chain: the shoulder it has, why ``two_link`` does
+    not apply, and the :class:`LimbContext` (:class:`~..closed_form.geometry.Kept`)."""
 
     def __init__(self, chain: Chain):
         self.k, self.reason = read_structure(chain)
@@ -367,22 +349,9 @@ class LimbCache:
         self.held = None if self.reason is not None else held_wrist(chain, self.k)
         """Why ``two_link`` misses targets the chain reaches (:func:`held_wrist`), ``None``
         where it is exact: it then places the end frame wherever the chain can."""
-        self.seen: list[float] | None = None
-        self.context: LimbContext | None = None
 
-    def current(self, chain: Chain) -> LimbContext:
-        """The chain's :class:`LimbContext`, read again if the limb's base has moved.
-
-        Raises:
-            SolverError: the chain is not a two-link limb (the reason).
-        """
-        if self.reason is not None:
-            raise SolverError(self.reason)
-        seen = chain.base_state()
-        if self.context is None or seen != self.seen:
-            self.context = LimbContext(chain, self.k)
-            self.seen = seen
-        return self.context
+    def read(self, chain: Chain) -> LimbContext:
+        return LimbContext(chain, self.k)
 
 
 def limb_cache(chain: Chain) -> LimbCache:

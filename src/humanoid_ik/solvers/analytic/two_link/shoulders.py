@@ -29,7 +29,6 @@ Everything here is Python floats (a numpy call costs about a microsecond).
 from __future__ import annotations
 
 import math
-from functools import partial
 from operator import itemgetter
 from typing import Any, NamedTuple
 
@@ -37,6 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from humanoid_ik.core.rotations import wrap_angle
+from humanoid_ik.solvers.analytic.closed_form.geometry import Triple
 from humanoid_ik.solvers.analytic.closed_form.joints import (
     GIMBAL,
     branch_angles,
@@ -48,21 +48,21 @@ from humanoid_ik.solvers.analytic.closed_form.numeric import (
     RANGE_TOL,
     TWO_PI,
     X_AXIS,
-    Y_AXIS,
     Vec,
     cross,
     dot,
-    perp_unit,
-    proj,
     rot,
     unit,
 )
 from humanoid_ik.solvers.analytic.closed_form.swivel import (
     decompose,
+    limb_axes,
     range_end_roots,
+    swivel_frame,
     triple_coefficients,
+    triple_target,
 )
-from humanoid_ik.solvers.analytic.two_link.geometry import Limb, LimbContext, place
+from humanoid_ik.solvers.analytic.two_link.geometry import Limb, LimbContext, law_of_cosines, place
 
 __all__ = [
     "Candidate",
@@ -148,13 +148,7 @@ def elbow_branches(ctx: LimbContext, limb: Limb, cos_e: float, q0: list[float]) 
 
 def hand(limb: Limb, qe: float) -> Vec:
     """``P(qe) - S``: the hand seen from the shoulder, shoulder at zero."""
-    fa, S = limb.fa, limb.S
-    c, s = math.cos(qe), math.sin(qe)
-    return (
-        fa.Pc[0] + c * fa.Pa[0] + s * fa.Pb[0] - S[0],
-        fa.Pc[1] + c * fa.Pa[1] + s * fa.Pb[1] - S[1],
-        fa.Pc[2] + c * fa.Pa[2] + s * fa.Pb[2] - S[2],
-    )
+    return limb.fa.at(limb.S, math.cos(qe), math.sin(qe))
 
 
 # ------------------------------------------------------------------------------ planar
@@ -182,8 +176,7 @@ def planar(
     t1 = t2 = 0.0
     if r > 1e-12:
         t1 = math.atan2(dot(tp, y), dot(tp, x))
-        c2 = (r * r + sh.l1 * sh.l1 - sh.l2 * sh.l2) / (2.0 * r * sh.l1)
-        t2 = math.acos(max(-1.0, min(1.0, c2)))
+        t2 = law_of_cosines(r, sh.l1, sh.l2)
     out = []
     for qe, label, _ in elbows:
         q1 = q0[0]
@@ -370,12 +363,6 @@ def _method_twist(method: str, v: Vec, t: Vec, b: Vec, r: Vec, k: Vec) -> tuple[
     return _direction(dot(x, r), dot(x, k))
 
 
-def _offset_fallbacks(a: Vec, ue: Vec) -> tuple[Vec, Vec, Vec]:
-    """Stand-ins for the elbow's offset from the limb ``a`` where it vanishes: ``a x u_e``,
-    then world x and y."""
-    return cross(a, ue), X_AXIS, Y_AXIS
-
-
 def _direction(x: float, y: float) -> tuple[float, float]:
     """``(cos, sin)`` of the angle of ``(x, y)``; ``(1, 0)`` where it vanishes."""
     n = math.hypot(x, y)
@@ -385,37 +372,18 @@ def _direction(x: float, y: float) -> tuple[float, float]:
 _first = itemgetter(0)
 
 
-def _nearest_feasible(ctx: LimbContext, ksh: tuple, cp: float, sp: float) -> tuple | None:
-    """``(cos, sin, decomposition)`` at the feasible twist nearest ``(cp, sp)``: the
-    preferred twist, else the range-end roots nearest first (the ends of the feasible
-    arcs are among them); ``None`` when no twist keeps the three hinges inside."""
-    tri = ctx.tri
-    assert tri is not None
-    dec = decompose(FLOATS, tri, ksh, cp, sp, True)
-    if dec is not None:
+def _twist(tri: Triple, ksh: tuple, cp: float, sp: float, lazy: bool) -> tuple | None:
+    """``(cos, sin, decomposition)`` at the twist nearest ``(cp, sp)`` where the three
+    hinges are inside their ranges (``lazy``: :func:`decompose` stops at a hinge outside)
+    or, not ``lazy``, where the joint decomposes (ranges aside): the preferred twist,
+    else the range-end roots nearest first (the ends of the feasible arcs are among
+    them); ``None`` when no twist does."""
+    dec = decompose(FLOATS, tri, ksh, cp, sp, lazy)
+    if dec is not None and dec[1]:
         return cp, sp, dec
-    roots = range_end_roots(FLOATS, tri, ksh, cp, sp)
-    roots.sort(key=_first)
-    for _, c, s, _ in roots:
-        dec = decompose(FLOATS, tri, ksh, c, s, True)
-        if dec is not None:
-            return c, s, dec
-    return None
-
-
-def _decomposing(ctx: LimbContext, ksh: tuple, cp: float, sp: float) -> tuple | None:
-    """``(cos, sin, decomposition)`` at the preferred twist, or at the nearest root where
-    the joint decomposes (ranges aside); ``None`` when it never does."""
-    tri = ctx.tri
-    assert tri is not None
-    dec = decompose(FLOATS, tri, ksh, cp, sp)
-    if dec[1]:
-        return cp, sp, dec
-    roots = range_end_roots(FLOATS, tri, ksh, cp, sp)
-    roots.sort(key=_first)
-    for _, c, s, _ in roots:
-        dec = decompose(FLOATS, tri, ksh, c, s)
-        if dec[1]:
+    for _, c, s, _ in sorted(range_end_roots(FLOATS, tri, ksh, cp, sp), key=_first):
+        dec = decompose(FLOATS, tri, ksh, c, s, lazy)
+        if dec is not None and dec[1]:
             return c, s, dec
     return None
 
@@ -424,9 +392,7 @@ def twist_frame(ctx: LimbContext, limb: Limb, t: Vec) -> tuple[Vec, Vec, Vec]:
     """``(n, r, k)``: the unit shoulder-target line ``n``, gravity normal to it ``r``
     (the twist's zero) and ``k = n x r``; a twist ``psi`` puts the elbow at the angle
     ``psi`` from ``r`` about ``n``."""
-    n = unit(FLOATS, t, lambda: unit(FLOATS, hand(limb, 0.0), X_AXIS))
-    r = perp_unit(FLOATS, ctx.down, n, lambda: (X_AXIS, Y_AXIS))
-    return n, r, cross(n, r)
+    return swivel_frame(FLOATS, ctx, t, lambda: unit(FLOATS, hand(limb, 0.0), X_AXIS))
 
 
 def three_hinge(
@@ -459,21 +425,16 @@ def three_hinge(
     """
     tri = ctx.tri
     assert tri is not None
-    ys = tri.y_rows
     n, r, k = twist_frame(ctx, limb, t)
-    nrk = (*proj(ys, n), *proj(ys, r), *proj(ys, k))
+    nrk = triple_target(tri, n, r, k)
     e0 = ctx.start_elbow(q0) if method == "nearest" and prefer is None else None
     out: list[Candidate] = []
     preferred: dict[str, float] = {}
     hands: dict[str, Vec] = {}
     for qe, label, _ in elbows:
-        v = hand(limb, qe)
-        hands[label] = v
-        a = unit(FLOATS, v, n)
-        b = perp_unit(FLOATS, ctx.e_rest, a, partial(_offset_fallbacks, a, ctx.ue))
-        cv = cross(a, b)
-        assert ctx.tri is not None
-        ksh = triple_coefficients(ctx.tri.z_rows, nrk, a, b, cv)
+        v = hands[label] = hand(limb, qe)
+        a, b, cv = limb_axes(FLOATS, v, n, ctx.e_rest, ctx.ue)
+        ksh = triple_coefficients(tri, nrk, a, b, cv)
         if prefer is not None:
             cp, sp = math.cos(prefer), math.sin(prefer)
         elif e0 is not None:
@@ -481,30 +442,18 @@ def three_hinge(
         else:
             cp, sp = _method_twist(method, v, t, b, r, k)
         preferred[label] = math.atan2(sp, cp)
-        found = None if every_branch else _nearest_feasible(ctx, ksh, cp, sp)
+        found = _twist(tri, ksh, cp, sp, lazy=True)
+        if found is not None and every_branch:  # both decompositions, not the inside one
+            found = (found[0], found[1], decompose(FLOATS, tri, ksh, found[0], found[1]))
+        found = found or _twist(tri, ksh, cp, sp, lazy=False)
         if found is None:
-            found = _feasible_or_any(ctx, ksh, cp, sp, every_branch)
-            if found is None:
-                continue
+            continue
         c, s, dec = found
         twist = math.atan2(s, c)
         frame = (n, r, k, a, b, cv)
         for q3, tag in _shoulder_angles(ctx, dec, frame, c, s, q0, every_branch):
             out.append(_make(ctx, [*q3, qe], q0, label, tag, twist, 0.0))
     return out, {"twist_preferred": preferred, "hands": hands}
-
-
-def _feasible_or_any(
-    ctx: LimbContext, ksh: tuple, cp: float, sp: float, every_branch: bool
-) -> tuple | None:
-    """For :func:`three_hinge`: the nearest feasible twist with its full decomposition
-    (``every_branch``), else a decomposing one (out of range)."""
-    if every_branch:
-        found = _nearest_feasible(ctx, ksh, cp, sp)
-        if found is not None:
-            assert ctx.tri is not None
-            return found[0], found[1], decompose(FLOATS, ctx.tri, ksh, found[0], found[1])
-    return _decomposing(ctx, ksh, cp, sp)
 
 
 def _shoulder_angles(

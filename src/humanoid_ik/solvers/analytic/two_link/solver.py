@@ -15,13 +15,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.analytic.closed_form.numeric import Vec
-from humanoid_ik.solvers.analytic.elbow import (
-    POLE_TOL,
-    arm_points,
-    elbow_frame,
-    pole_angle,
-    pole_search,
-)
+from humanoid_ik.solvers.analytic.elbow import arm_points, pole_angle, pole_search, pole_verdict
 from humanoid_ik.solvers.analytic.two_link.geometry import (
     Limb,
     LimbContext,
@@ -128,8 +122,8 @@ class TwoLink(Solver):
     inside the ranges.
 
     An elbow pole (``Target.pole``) chooses among them: a three-hinge shoulder's twist
-    is the pole's angle about the shoulder-target line (corrected once by
-    :func:`~..elbow.pole_turn` when a wrist puts the wrist point off that line; the
+    is the pole's angle about the shoulder-target line (corrected by
+    :func:`~..elbow.pole_search` when a wrist puts the wrist point off that line; the
     nearest feasible twist where the ranges forbid it), and among the branches
     (elbow and shoulder, within the ``branch`` and ``shoulder`` options) the one inside
     the ranges whose elbow is nearest the pole's plane is kept (ties: nearest the
@@ -264,22 +258,18 @@ class TwoLink(Solver):
         q0l = q0.tolist()
         limb = ctx.limb(chain, tuple(q0l[4:]))
         t = _reach(ctx, limb, target.position.tolist()).t
-        n, r, k = twist_frame(ctx, limb, t)
-        p = pole - np.array(limb.S)
-        x, y = float(p @ r), float(p @ k)
-        if math.hypot(x, y) < 1e-12 * max(1.0, float(np.linalg.norm(p))):
-            res = self._at(chain, target, q0, None, None)
-            return res.with_details(pole="undefined: the pole lies on the shoulder-target line")
-        frame = elbow_frame(chain)
-        res, want, _ = pole_search(
+        found = pole_search(
+            chain,
             lambda w: self._at(chain, target, q0, pole, w),
-            lambda rs: frame.points(chain),  # _at left the chain at the answer
-            (n, r, k),
+            limb.S,
+            twist_frame(ctx, limb, t),
             pole,
-            math.atan2(y, x),
             tries=4 if ctx.k + 1 < chain.n else 1,  # no wrist: the hand is on the axis
         )
-        return _with_pole(chain, res, pole, pole_twist=want)
+        if found is None:
+            res = self._at(chain, target, q0, None, None)
+            return res.with_details(pole="undefined: the pole lies on the shoulder-target line")
+        return _with_pole(chain, found[0], pole, pole_twist=found[1])
 
     def _at(
         self,
@@ -302,10 +292,8 @@ class TwoLink(Solver):
             elbows = [e for e in elbows if e[1] in (o.branch, "both")]
         # the elbows inside their range first; the others only if none of those fits
         lo, hi = ctx.lower[k], ctx.upper[k]
-        first: list = []
-        later: list = []
-        for e in elbows:
-            (first if inside(e[0], lo, hi) else later).append(e)
+        first = [e for e in elbows if inside(e[0], lo, hi)]
+        later = [e for e in elbows if not inside(e[0], lo, hi)]
         if not first:
             first, later = later, []
         found, info = self._candidates(ctx, limb, reach, q0l, first, prefer=prefer)
@@ -435,23 +423,18 @@ def _pole_order(
     1e-6 rad, so that equal planes tie) before the distance to the start."""
 
     def key(c: Candidate) -> tuple:
-        q = list(c.q) + q0[len(c.q) :]
-        a = pole_angle(arm_points(chain, q), pole)
-        return (not c.inside, c.gap, c.violation, round(0.0 if math.isnan(a) else a * 1e6))
+        a = pole_angle(arm_points(chain, list(c.q) + q0[len(c.q) :]), pole)
+        a = round(0.0 if math.isnan(a) else a * 1e6)
+        return (not c.inside, c.gap, c.violation, a, _distance(c, q0))
 
-    return lambda c: (*key(c), _distance(c, q0))
+    return key
 
 
 def _with_pole(chain: Chain, res: IKResult, pole: NDArray[np.float64], **extra: Any) -> IKResult:
     """``res`` with the pole's figures in its details (the chain left at ``res.q``)."""
     err = pole_angle(arm_points(chain, res.q), pole)
-    if err <= POLE_TOL:
-        how = "honoured"
-    elif res.status is Status.UNREACHABLE:
-        how = "not honoured: the target is unreachable"
-    else:
-        how = "nearest feasible twist (joint ranges)" if extra else "nearest branch (no twist)"
-    return res.with_details(pole=how, pole_error=err, **extra)
+    why = "nearest feasible twist (joint ranges)" if extra else "nearest branch (no twist)"
+    return res.with_details(pole=pole_verdict(err, res.status, why), pole_error=err, **extra)
 
 
 def _distance(c: Candidate, q0: list[float]) -> float:
