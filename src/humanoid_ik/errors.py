@@ -155,12 +155,23 @@ class RetargetError(HumanoidIKError, ValueError):
     given), a bad mapping file or solver, a robot without arms."""
 
 
-def __getattr__(name: str) -> Any:
-    if name == "TrajectoryError":
+def renamed(module: str, names: dict[str, str], namespace: dict[str, Any]) -> Any:
+    """A module ``__getattr__`` (PEP 562) for names kept one release after a rename:
+    ``names`` maps each former name to its new one in ``namespace`` (the module's
+    ``globals()``); a former name warns (``DeprecationWarning`` at the caller's line,
+    naming the new one) and gives the new object. Use:
+    ``__getattr__ = renamed(__name__, {"old": "new"}, globals())``."""
+
+    def __getattr__(name: str) -> Any:
+        if name not in names:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        new = names[name]
         warnings.warn(
-            "humanoid_ik.errors.TrajectoryError is deprecated; use MotionError",
-            DeprecationWarning,
-            stacklevel=2,
+            f"{module}.{name} is deprecated; use {module}.{new}", DeprecationWarning, stacklevel=2
         )
-        return MotionError
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        return namespace[new]
+
+    return __getattr__
+
+
+__getattr__ = renamed(__name__, {"TrajectoryError": "MotionError"}, globals())

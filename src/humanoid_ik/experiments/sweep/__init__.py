@@ -12,10 +12,8 @@ by :mod:`humanoid_ik.config.sweep_file` and re-exported here. ``read_records`` a
 :func:`damaged_results`, kept as deprecated aliases for one release.
 """
 
-import warnings
-from typing import Any
-
 from humanoid_ik.config.sweep_file import Job, Sweep, load_sweep, parse_sweep
+from humanoid_ik.errors import renamed
 from humanoid_ik.experiments.sweep.executors import import_ray
 from humanoid_ik.experiments.sweep.jobs import COLUMNS, TIMING_COLUMNS, run_job
 from humanoid_ik.experiments.sweep.resume import (
@@ -49,14 +47,4 @@ __all__ = [
 _RENAMED = {"damaged_records": "damaged_results", "read_records": "read_results"}
 """Former names (a job's result was its "record"): old -> new, for one release."""
 
-
-def __getattr__(name: str) -> Any:
-    if name in _RENAMED:
-        new = _RENAMED[name]
-        warnings.warn(
-            f"{__name__}.{name} is deprecated; use {__name__}.{new}",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return globals()[new]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = renamed(__name__, _RENAMED, globals())

@@ -13,7 +13,6 @@ import math
 import os
 import time
 import traceback
-import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -23,7 +22,7 @@ from humanoid_ik.config.scene import SolverSpec, load_scene
 from humanoid_ik.config.sweep_file import Job, reseeded, scene_digest, target_set_chain
 from humanoid_ik.core.model_files import model_digest
 from humanoid_ik.core.models import load_model
-from humanoid_ik.errors import SweepError
+from humanoid_ik.errors import SweepError, renamed
 from humanoid_ik.experiments.bench import make_targets, not_reaching, run_trials
 from humanoid_ik.run.runner import run_scene
 from humanoid_ik.solvers import make_solver
@@ -188,14 +187,4 @@ def failed_result(job: Job, exc: BaseException) -> dict[str, Any]:
 _RENAMED = {"failed_record": "failed_result", "new_record": "new_result"}
 """Former names (a job's result was its "record"): old -> new, for one release."""
 
-
-def __getattr__(name: str) -> Any:
-    if name in _RENAMED:
-        new = _RENAMED[name]
-        warnings.warn(
-            f"{__name__}.{name} is deprecated; use {__name__}.{new}",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return globals()[new]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = renamed(__name__, _RENAMED, globals())

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from humanoid_ik.config.sweep_file import Job, Sweep
-from humanoid_ik.errors import SweepError
+from humanoid_ik.errors import SweepError, renamed
 from humanoid_ik.experiments.sweep.executors import MAX_WORKERS, import_ray, run_local, run_ray
 from humanoid_ik.experiments.sweep.jobs import COLUMNS
 from humanoid_ik.experiments.sweep.summary import plot_summary, status_counts, write_summary
@@ -281,14 +281,4 @@ def run_sweep(
 _RENAMED = {"damaged_records": "damaged_results", "read_records": "read_results"}
 """Former names (a job's result was its "record"): old -> new, for one release."""
 
-
-def __getattr__(name: str) -> Any:
-    if name in _RENAMED:
-        new = _RENAMED[name]
-        warnings.warn(
-            f"{__name__}.{name} is deprecated; use {__name__}.{new}",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return globals()[new]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = renamed(__name__, _RENAMED, globals())
