@@ -540,6 +540,30 @@ def test_seed_library_ranks_by_distance_and_angle(right_arm):
         assert all(c.within_limits(s) for s in starts)
 
 
+def test_random_starts_are_the_seeded_draws_kept_with_the_robot():
+    """The random restarts are ``chain.random_q`` from ``default_rng(seed)`` in order,
+    drawn once per robot state (a changed model draws them again, inside the new
+    ranges), and each start handed out is a copy the solver may overwrite."""
+    import copy
+
+    from humanoid_ik.solvers.jacobian.seeds import random_starts, restart_poses
+
+    c = Chain(copy.copy(Chain().model))  # its own model: the test narrows a range
+    rng = np.random.default_rng(3)
+    want = np.array([c.random_q(rng) for _ in range(4)])
+    np.testing.assert_array_equal(random_starts(c, 3, 4), want)
+    assert random_starts(c, 3, 4) is random_starts(c, 3, 4)
+    starts = list(restart_poses(c, c.q, None, restarts=4, library_seeds=0, seed=3))
+    np.testing.assert_array_equal(np.array(starts[1:]), want)
+    starts[1][:] = 0.0
+    np.testing.assert_array_equal(random_starts(c, 3, 4)[0], want[0])
+    j = c.joint_ids[0]
+    c.model.jnt_range[j] = (want[0][0] - 0.01, want[0][0] + 0.01)  # the live model narrowed
+    c.sync()
+    again = random_starts(c, 3, 4)
+    assert np.all(np.abs(again[:, 0] - want[0][0]) <= 0.01 + 1e-12)
+
+
 def test_threads_on_a_shared_model_match_one_thread():
     """The kernel runs without the GIL: two threads, each with its own chain (and so its
     own robot state and kernel) on one shared MjModel, sharing one solver object, give
