@@ -461,6 +461,21 @@ def test_the_kernel_refuses_bad_arguments():
         call(quat=np.zeros(3))
     with pytest.raises(ValueError, match="Kernel"):
         _lm_kernel.Kernel(b"not a model")
+    # the kernel builds hinge and slide columns only: a ball's dof is refused
+    ball = Chain.from_xml_string(
+        '<mujoco><worldbody><body><joint type="ball"/><geom size=".1"/>'
+        '<body pos="0 0 .5"><joint name="h" axis="0 1 0"/><geom size=".1"/>'
+        '<site name="tip" pos="0 0 .5"/></body></body></worldbody></mujoco>',
+        "tip",
+        ["h"],
+    )
+    kb = kernel(ball)
+    with pytest.raises(ValueError, match="not a hinge's or a slide's"):
+        kb.descend(ball.data.qpos, ball.qpos_adr, np.array([0]), True, ball.ee_id, ball.lower,
+                   ball.upper, np.zeros(3), None, o, ball.q.copy())  # fmt: skip
+    ok = kb.descend(ball.data.qpos, ball.qpos_adr, ball.dof_adr, True, ball.ee_id,
+                    ball.lower, ball.upper, np.zeros(3), None, o, ball.q.copy())  # fmt: skip
+    assert ok[1] >= 0
 
 
 def test_a_kernel_serves_one_thread_at_a_time():

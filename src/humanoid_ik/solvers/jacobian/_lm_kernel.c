@@ -9,7 +9,8 @@
      copy the robot's qpos in, put the start q on the chain's joints, then per iteration
      mj_kinematics, the task error from the end effector's position and its body's
      quaternion and rotation (the target orientation is moved into the body's frame at
-     the first pass), the stall test, mj_comPos + mj_jacSite (mj_jacBody), J' W J + lambda I
+     the first pass), the stall test, the chain's Jacobian from the joints' axes and anchors
+     (chain_jacobian), J' W J + lambda I
      (mju_sqrMatTD), -J' W e (mju_mulMatTVec), the linear term in x = q + dq
      (mju_mulMatVec) and mju_boxQP between the joint ranges, warm-started at q.
 
@@ -93,11 +94,38 @@ static void put_joints(const Problem* p, mjData* d, const mjtNum* x) {
   for (int i = 0; i < p->n; i++) d->qpos[p->qadr[i]] = x[i];
 }
 
+/* The chain's Jacobian J (rows, n) at the end effector's point from the joint frames
+   mj_kinematics computed: a hinge's column is axis x (point - anchor) (and the axis for
+   the rotation rows), a slide's its axis (and zero). The chain's joints are hinges and
+   slides (chains refuse the others), so this is mj_jacSite's (mj_jacBody's) columns of
+   the chain's dofs, without mj_comPos and the columns of every other dof. */
+static void chain_jacobian(const mjModel* m, const mjData* d, const Problem* p,
+                           const mjtNum* point, mjtNum* J) {
+  const int n = p->n, pose = p->rows == 6;
+  for (int i = 0; i < n; i++) {
+    int j = m->dof_jntid[p->dof[i]];
+    const mjtNum* axis = d->xaxis + 3 * j;
+    mjtNum col[3];
+    if (m->jnt_type[j] == mjJNT_HINGE) {
+      mjtNum r[3];
+      mju_sub3(r, point, d->xanchor + 3 * j);
+      mju_cross(col, axis, r);
+    } else {
+      mju_copy3(col, axis);
+    }
+    for (int k = 0; k < 3; k++) J[k * n + i] = col[k];
+    if (pose) {
+      int hinge = m->jnt_type[j] == mjJNT_HINGE;
+      for (int k = 0; k < 3; k++) J[(3 + k) * n + i] = hinge ? axis[k] : 0.0;
+    }
+  }
+}
+
 /* Iterate from q (n,), which ends at the converged pose or this start's best pose (the
    lowest e' W e); the cost and the errors are those of that pose. The stall rule is the
    one of solvers/iterate.py (Stall): no 1 % drop over the last `window` iterations. */
 static Outcome descend(const mjModel* m, mjData* d, const Problem* p, mjtNum* q) {
-  const int n = p->n, rows = p->rows, nv = p->nv, pose = rows == 6;
+  const int n = p->n, rows = p->rows, pose = rows == 6;
   Outcome out = {0, 0, INFINITY, NAN, NAN};
   mjtNum e[6] = {0}, q_err[3], target_body[4], w[6] = {1, 1, 1, p->wr, p->wr, p->wr};
   mjtNum *e_p = e, *e_r = e + 3;
@@ -108,7 +136,6 @@ static Outcome descend(const mjModel* m, mjData* d, const Problem* p, mjtNum* q)
   int it;
 
   mj_markStack(d);
-  mjtNum* jac = mj_stackAllocNum(d, (size_t)6 * nv); /* jacp (3, nv) then jacr (3, nv) */
   mjtNum* J = mj_stackAllocNum(d, (size_t)rows * n);
   mjtNum* H = mj_stackAllocNum(d, (size_t)n * n);
   mjtNum* R = mj_stackAllocNum(d, (size_t)n * (n + 7));
@@ -161,15 +188,7 @@ static Outcome descend(const mjModel* m, mjData* d, const Problem* p, mjtNum* q)
     int slot = it % p->window; /* < history: see the caller */
     if (it == p->max_iterations || (it >= p->window && cost > 0.99 * history[slot])) break;
     history[slot] = cost;
-    mj_comPos(m, d);
-    if (p->site) {
-      mj_jacSite(m, d, jac, pose ? jac + 3 * nv : NULL, p->ee_id);
-    } else {
-      mj_jacBody(m, d, jac, pose ? jac + 3 * nv : NULL, p->ee_id);
-    }
-    for (int r = 0; r < rows; r++) {
-      for (int i = 0; i < n; i++) J[r * n + i] = jac[r * nv + p->dof[i]];
-    }
+    chain_jacobian(m, d, p, xpos, J);
     mju_sqrMatTD(H, J, w, rows, n); /* H = J' W J */
     mjtNum lambda = p->damp_e * cost + p->damp_0;
     for (int i = 0; i < n; i++) H[i * (n + 1)] += lambda; /* + lambda I */
@@ -303,6 +322,12 @@ static PyObject* Kernel_descend(Kernel* self, PyObject* const* args, Py_ssize_t 
     if (p.qadr[i] < 0 || p.qadr[i] >= m->nq || p.dof[i] < 0 || p.dof[i] >= m->nv) {
       PyErr_Format(PyExc_ValueError, "joint %zd: qpos address %lld or dof address %lld "
                    "is outside the model", i, (long long)p.qadr[i], (long long)p.dof[i]);
+      goto done;
+    }
+    int type = m->jnt_type[m->dof_jntid[p.dof[i]]];
+    if (type != mjJNT_HINGE && type != mjJNT_SLIDE) { /* chain_jacobian's joints */
+      PyErr_Format(PyExc_ValueError, "joint %zd: dof address %lld is not a hinge's or a slide's",
+                   i, (long long)p.dof[i]);
       goto done;
     }
   }

@@ -26,11 +26,13 @@ One start, the iteration loop, runs in C: the extension module
 against the headers and the ``libmujoco`` of the ``mujoco`` wheel; there is no other
 implementation and no fallback). Per iteration it runs one ``mj_kinematics``, the error
 from the end effector's position and its body's quaternion and rotation (the target
-orientation is moved into the body's frame at the start's first pass), one
-``mj_comPos`` + ``mj_jacSite`` (``mj_jacBody`` for a body end effector), ``J' W J``
+orientation is moved into the body's frame at the start's first pass), the chain's
+Jacobian columns from the joint axes and anchors ``mj_kinematics`` wrote, ``J' W J``
 and ``J' W e`` by ``mju_sqrMatTD`` / ``mju_mulMatTVec`` and the box QP, with no call
-back into Python. The Jacobian from MuJoCo is cheaper than the chain's own columns
-``axis x (p - anchor)`` in numpy (see ``docs/lm.md`` for the figures).
+back into Python. Those columns, ``axis x (p - anchor)`` per hinge (the axis alone
+per slide), are MuJoCo's Jacobian's (``mj_jacSite``, to rounding), built in C without
+``mj_comPos`` and the other dofs' columns (in numpy they would cost ten times MuJoCo's;
+see ``docs/lm.md`` for the figures).
 
 The kernel owns a copy of the model (made from the bytes of ``mujoco.mj_saveModel``;
 there is no public way to reach the ``mjModel`` behind a ``mujoco.MjModel``) and an
