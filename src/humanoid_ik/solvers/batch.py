@@ -10,11 +10,8 @@ pays from tens of thousands of targets (``benchmarks/batch.py``).
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
-import tempfile
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import mujoco
@@ -168,6 +165,11 @@ def solve_batch(
     first = solve(chain, items[0], solver, q0=start, **options)  # checks solver and start
     if n_workers <= 1:
         return [first] + [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
+    # imported here: a solve without workers (every import humanoid_ik) needs neither
+    import multiprocessing as mp
+    import tempfile
+    from concurrent.futures import ProcessPoolExecutor
+
     packed = _packed(items[1:])
     size = -(-len(packed[0]) // (n_workers * CHUNKS_PER_WORKER))
     chunks = [tuple(a[i : i + size] for a in packed) for i in range(0, len(packed[0]), size)]
