@@ -10,9 +10,9 @@ The choice depends on the chain and the target only (measured on real arms in
   the bundled humanoid): exact, one pass, every pose in the ranges; ``subproblem`` on a
   6-hinge chain of a family its subproblems decompose (a spherical wrist or shoulder,
   three parallel axes: Kinova j2s6s200, UR5; ``docs/subproblem.md``): exact, every
-  solution, the in-range one nearest the start, and on UR5 and Kinova faster than
-  ``lm`` at the median (20 and 18 us against 24 and 27 us of CPU) with a p95 about a
-  fifth of ``lm``'s (``benchmarks/peers.py``, ``docs/subproblem.md``); else ``lm``;
+  solution, the in-range one nearest the start, on UR5 and Kinova at ``lm``'s median
+  CPU or below with a p95 a quarter of ``lm``'s (``benchmarks/peers.py``,
+  ``docs/subproblem.md``); else ``lm``;
 - a position target: ``two_link`` where it places the end frame wherever the chain can:
   shoulder axes that meet (or a planar shoulder), an elbow, and nothing after the elbow
   that moves the end frame (no wrist, as on a 4-joint H1-like arm, or an end frame on
