@@ -157,3 +157,15 @@ def ended(proc: subprocess.Popen, tag: str, within: float) -> tuple[bytes, bytes
 def temporaries(folder: Path) -> list[str]:
     """The temporaries (``.NAME.PID.TID.tmp...``) anywhere under ``folder``."""
     return sorted(p.name for p in folder.rglob(".*") if ".tmp" in p.name)
+
+
+def xvfb_run() -> list[str]:
+    """``xvfb-run -a`` with its first display number of this process's own: ``-a`` looks
+    for a free display from that number up, and two test workers (or a module's own
+    ``Xvfb -displayfd`` server) starting at the same number at the same moment could
+    both find it free, the second then failing to open it."""
+    import shutil
+
+    exe = shutil.which("xvfb-run")
+    assert exe is not None, "xvfb-run is not installed (Debian: apt-get install xvfb)"
+    return [exe, "-a", "-n", str(200 + 20 * (os.getpid() % 400))]

@@ -33,6 +33,7 @@ from humanoid_ik.core.models import (
 )
 from humanoid_ik.core.robot_files import PackageIndex
 from humanoid_ik.errors import SweepError
+from tests.processes import xvfb_run
 from tests.robots import PACKAGE, SHARE, robot_file
 
 ERD = "example-robot-data"
@@ -590,15 +591,12 @@ def test_cli_usage_errors_name_the_command_once(capsys):
 def test_cli_view_takes_joints(tmp_path):
     """view --model <SO-100 URDF> --body gripper --joints J1,J2 under a virtual X
     server: the effector's chain is those two joints."""
-    xvfb = shutil.which("xvfb-run")
-    assert xvfb is not None, "xvfb-run is not installed (Debian: apt-get install xvfb)"
     from humanoid_ik.outputs.trajectory import load_trajectory
 
     joints = ["shoulder_pan", "elbow_flex"]
     out = tmp_path / "view"
     cmd = [
-        xvfb,
-        "-a",
+        *xvfb_run(),
         sys.executable,
         "-m",
         "humanoid_ik",

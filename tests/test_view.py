@@ -50,6 +50,7 @@ from tests.processes import (
     signal_when,
     start,
     temporaries,
+    xvfb_run,
 )
 from tests.robots import robot_file
 
@@ -58,11 +59,9 @@ REPO = Path(__file__).resolve().parents[1]
 
 def view(tmp_path: Path, *args: str) -> tuple[subprocess.CompletedProcess, Path]:
     """`humanoid-ik view ARGS --out DIR` under xvfb-run with MUJOCO_GL=glfw."""
-    xvfb = shutil.which("xvfb-run")
-    assert xvfb is not None, "xvfb-run is not installed (Debian: apt-get install xvfb)"
     out = tmp_path / "view"
     env = {**os.environ, "MUJOCO_GL": "glfw"}
-    cmd = [xvfb, "-a", sys.executable, "-m", "humanoid_ik", "view", *args, "--out", str(out)]
+    cmd = [*xvfb_run(), sys.executable, "-m", "humanoid_ik", "view", *args, "--out", str(out)]
     proc = subprocess.run(
         cmd, capture_output=True, text=True, env=env, timeout=180, cwd=tmp_path, check=False
     )
@@ -146,10 +145,8 @@ def _children(pid: int) -> list[int]:
 def test_view_sigterm_writes_the_trajectory(tmp_path):
     """SIGTERM to a running viewer (no --duration): the frames shown so far are written
     as an interrupted trajectory, the hand was on the target, and the exit status is 143."""
-    xvfb = shutil.which("xvfb-run")
-    assert xvfb is not None, "xvfb-run is not installed (Debian: apt-get install xvfb)"
     out = tmp_path / "view"
-    cmd = [xvfb, "-a", sys.executable, "-m", "humanoid_ik", "view", "circle", "--out", str(out)]
+    cmd = [*xvfb_run(), sys.executable, "-m", "humanoid_ik", "view", "circle", "--out", str(out)]
     env = {**os.environ, "MUJOCO_GL": "glfw"}
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path
