@@ -269,7 +269,7 @@ class Retargeter:
             if keep(res, how):
                 return res, how
             if f > 0 and res.position_error <= 1e-3:
-                # too fast: inside the speed box towards the planned branch
+                # too fast: inside the speed box towards the tracked path's branch
                 pose = POSITION_ONLY not in how
                 return self._bounded(side, arm, f, q0, (res.q,), pose), how + "+bounded"
         for k in range(SPEED_TRIES if w > 0 else 0):
