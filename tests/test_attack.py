@@ -598,6 +598,32 @@ def test_an_mjcf_range_of_zero_width_locks_the_joint(tmp_path):
         assert np.isinf(Chain(load_model(free), site="tip").upper[1])
 
 
+def test_an_mjcf_string_s_dropped_ranges_are_read_as_a_file_s():
+    """``Chain.from_xml_string``: the same MJCF as a string, not a file, is refused when
+    its elbow's range is inverted and locks it (with the note) when the range has zero
+    width; ``limited="false"`` written keeps it free."""
+    import warnings
+
+    from humanoid_ik.core.models import ModelWarning
+    from humanoid_ik.errors import ModelError
+
+    with pytest.raises(ModelError) as info:
+        Chain.from_xml_string(MODELS["inverted"], "tip")
+    assert str(info.value) == (
+        "model 'MJCF string': joint 'elbow' has range 0.5 -0.5 (lower > upper, which MuJoCo "
+        "would take as unlimited); swap them"
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        chain = Chain.from_xml_string(MODELS["locked"], "tip")
+    said = [str(w.message) for w in caught if issubclass(w.category, ModelWarning)]
+    assert any("1 joint(s) locked" in m and "'elbow' at 0.5" in m for m in said), said
+    assert chain.lower[1] == pytest.approx(0.5, abs=1e-8) and chain.upper[1] == pytest.approx(0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ModelWarning)
+        assert np.isinf(Chain.from_xml_string(MODELS["unlimited"], "tip").upper[1])
+
+
 # ----------------------------------------------------------------------------- issue 24, item 15
 def test_mujocos_warning_in_library_use_is_a_python_warning_and_writes_no_log(
     tmp_path, monkeypatch, capsys

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.checks import float_array
+from humanoid_ik.core.model_checks import check_ranges
 from humanoid_ik.core.models import home_qpos
 from humanoid_ik.core.mujoco_warnings import mujoco_warnings
 from humanoid_ik.core.robot import Robot, joint_name, names
@@ -43,12 +44,7 @@ REACH_STARTS = 3
 REACH_METHOD = f"sampled, {REACH_SAMPLES} poses"
 """How :meth:`Chain.reach` finds the reach, as reports print it."""
 _REACH_SEED = 0
-_JOINT_TYPE_NAMES = {
-    mujoco.mjtJoint.mjJNT_FREE: "free",
-    mujoco.mjtJoint.mjJNT_BALL: "ball",
-    mujoco.mjtJoint.mjJNT_SLIDE: "slide",
-    mujoco.mjtJoint.mjJNT_HINGE: "hinge",
-}
+_JOINT_TYPE_NAMES = {int(t): k[6:].lower() for k, t in mujoco.mjtJoint.__members__.items()}
 
 
 def _check_args(site: Any, body: Any, joints: Any) -> None:
@@ -275,7 +271,8 @@ class Chain:
             site, joints, body: as for :class:`Chain`.
 
         Raises:
-            ModelError: ``xml`` is not a string, or MuJoCo cannot compile it (its message kept).
+            ModelError: ``xml`` is not a string, MuJoCo cannot compile it (its message kept),
+                or a joint's range is inverted (a zero-width one is locked, with a warning).
             NameNotFoundError, UnsupportedJointError, ChainError: as :class:`Chain`.
         """
         if not isinstance(xml, str):
@@ -285,6 +282,7 @@ class Chain:
                 model = mujoco.MjModel.from_xml_string(xml)
         except ValueError as exc:
             raise ModelError(f"MJCF string does not compile: {' '.join(str(exc).split())}") from exc
+        check_ranges(model, "MJCF string", xml=xml)
         return cls(model, site, joints, body=body)
 
     def derived(self, key: Hashable, build: Callable[[Chain], T]) -> T:

@@ -64,11 +64,12 @@ def check_finite(model: mujoco.MjModel, what: str) -> None:
         raise ModelError(f"{what}: {where} is not finite ({shown}); every number must be")
 
 
-def check_ranges(model: mujoco.MjModel, path: str | os.PathLike) -> None:
+def check_ranges(model: mujoco.MjModel, path: str | os.PathLike, *, xml: str | None = None) -> None:
     """What an MJCF file's dropped joint ranges mean: a hinge or slide whose ``range``
     has lower = upper (not the default ``0 0``) and no ``limited`` of its own is locked
-    there, in ``model`` (just compiled from ``path``), with one :class:`ModelWarning`;
-    lower > upper is refused.
+    there, in ``model`` (just compiled from ``path``, or from the MJCF string ``xml``,
+    ``path`` then naming it in the messages), with one :class:`ModelWarning`; lower >
+    upper is refused.
 
     Raises:
         ModelError: a joint whose range is inverted, naming it and its range.
@@ -85,7 +86,11 @@ def check_ranges(model: mujoco.MjModel, path: str | os.PathLike) -> None:
     if not dropped:
         return
     with mujoco_warnings():  # was limited="false" written?
-        spec = mujoco.MjSpec.from_file(str(path))
+        spec = (
+            mujoco.MjSpec.from_string(xml)
+            if xml is not None
+            else mujoco.MjSpec.from_file(str(path))
+        )
     locked = []
     for j in dropped:
         name = joint_name(model, j)
