@@ -93,6 +93,27 @@ SMALL_ARM_XML = """
 
 # The humanoid report's arm (the third seed): an upper arm and a forearm in the xy plane,
 # both hinges about z, lengths L1 = 0.32 and L2 = 0.27, limited as an elbow bends.
+
+PLANAR_ARM_XML = """
+<mujoco>
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="upper">
+      <joint name="shoulder" type="hinge" axis="0 0 1"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      <body name="fore" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 0 1" RANGE/>
+        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03"/>
+        <site name="tip" pos="0.25 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+"""A planar arm of two hinges, site ``tip``; its elbow's range attributes are ``RANGE``
+(the shoulder has none: continuous)."""
+
+
 REPORT_XML = """
 <mujoco model="report_arm">
   <compiler angle="radian" autolimits="true"/>

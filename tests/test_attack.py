@@ -27,6 +27,7 @@ from humanoid_ik.cli import main
 from humanoid_ik.core.models import bundled_dir
 from humanoid_ik.motion import MAX_KNOTS, Points, RandomWalk
 from humanoid_ik.solvers.jacobian.dls import DLS
+from tests.chains import PLANAR_ARM_XML
 
 SWEEP = """
 name = "attack"
@@ -103,23 +104,7 @@ USERS_FILES = {
 }
 """Folders of the user's own files (no run of the tool wrote them): folder -> file."""
 
-ARM = """
-<mujoco>
-  <compiler angle="radian"/>
-  <worldbody>
-    <body name="upper">
-      <joint name="shoulder" type="hinge" axis="0 0 1"/>
-      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
-      <body name="fore" pos="0.3 0 0">
-        <joint name="elbow" type="hinge" axis="0 0 1" RANGE/>
-        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03"/>
-        <site name="tip" pos="0.25 0 0"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
-"""A planar arm of two hinges whose elbow's range attributes are ``RANGE``."""
+ARM = PLANAR_ARM_XML
 
 MODELS = {
     "inverted": ARM.replace("RANGE", 'range="0.5 -0.5"'),

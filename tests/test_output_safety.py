@@ -17,6 +17,7 @@ import pytest
 from humanoid_ik.cli import main
 from humanoid_ik.experiments.dataset import read_dataset
 from humanoid_ik.outputs.atomic import MANIFEST, write_text
+from tests.chains import PLANAR_ARM_XML
 from tests.processes import ended, signal_when, start, temporaries
 
 COMMANDS = {
@@ -68,22 +69,7 @@ def test_an_output_through_a_symbolic_link_replaces_its_file_and_keeps_the_link(
     assert bench.is_symlink() and json.loads((real / "b.json").read_text())
 
 
-UNLIMITED_ARM = """
-<mujoco>
-  <compiler angle="radian"/>
-  <worldbody>
-    <body name="upper">
-      <joint name="shoulder" type="hinge" axis="0 0 1"/>
-      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
-      <body name="fore" pos="0.3 0 0">
-        <joint name="elbow" type="hinge" axis="0 0 1" range="-2 2"/>
-        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03"/>
-        <site name="tip" pos="0.25 0 0"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+UNLIMITED_ARM = PLANAR_ARM_XML.replace("RANGE", 'range="-2 2"')
 """A planar arm whose shoulder is continuous (no range): its range margin is infinite."""
 
 
