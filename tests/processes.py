@@ -10,7 +10,8 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 TAG = "HUMANOID_IK_TEST_TAG"
@@ -159,13 +160,43 @@ def temporaries(folder: Path) -> list[str]:
     return sorted(p.name for p in folder.rglob(".*") if ".tmp" in p.name)
 
 
-def xvfb_run() -> list[str]:
-    """``xvfb-run -a`` with its first display number of this process's own: ``-a`` looks
-    for a free display from that number up, and two test workers (or a module's own
-    ``Xvfb -displayfd`` server) starting at the same number at the same moment could
-    both find it free, the second then failing to open it."""
+@contextmanager
+def virtual_display() -> Iterator[str]:
+    """A virtual X server of the caller's own, as ``":N"`` for ``DISPLAY``: ``Xvfb
+    -displayfd`` takes the first free display under the X server's own lock and writes
+    its number once it serves, so two test workers starting one at the same moment get
+    two displays (``xvfb-run -a`` probes for a free number first and does not wait for
+    the server it stops, so a test started at once after another could connect to a
+    display going away). Stopped at the end and checked gone with every process that
+    carries its tag."""
+    import select
     import shutil
+    import uuid
 
-    exe = shutil.which("xvfb-run")
-    assert exe is not None, "xvfb-run is not installed (Debian: apt-get install xvfb)"
-    return [exe, "-a", "-n", str(200 + 20 * (os.getpid() % 400))]
+    exe = shutil.which("Xvfb")
+    assert exe is not None, "Xvfb is not installed (Debian: apt-get install xvfb)"
+    tag = uuid.uuid4().hex
+    r, w = os.pipe()
+    server = subprocess.Popen(
+        [exe, "-displayfd", str(w), "-nolisten", "tcp", "-noreset", "-screen", "0", "800x600x24"],
+        pass_fds=(w,),
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env={**os.environ, TAG: tag},
+    )
+    os.close(w)
+    try:
+        ready, _, _ = select.select([r], [], [], 30)
+        number = os.read(r, 16).decode().strip() if ready else ""
+        assert number.isdigit(), f"Xvfb gave no display within 30 s ({number!r})"
+        yield f":{number}"
+    finally:
+        os.close(r)
+        server.terminate()
+        try:
+            server.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait()
+    assert none_left(tag) == [], "Xvfb still runs"

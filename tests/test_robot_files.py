@@ -33,7 +33,7 @@ from humanoid_ik.core.models import (
 )
 from humanoid_ik.core.robot_files import PackageIndex
 from humanoid_ik.errors import SweepError
-from tests.processes import xvfb_run
+from tests.processes import virtual_display
 from tests.robots import PACKAGE, SHARE, robot_file
 
 ERD = "example-robot-data"
@@ -596,7 +596,6 @@ def test_cli_view_takes_joints(tmp_path):
     joints = ["shoulder_pan", "elbow_flex"]
     out = tmp_path / "view"
     cmd = [
-        *xvfb_run(),
         sys.executable,
         "-m",
         "humanoid_ik",
@@ -612,14 +611,15 @@ def test_cli_view_takes_joints(tmp_path):
         "--out",
         str(out),
     ]
-    proc = subprocess.run(
-        cmd,
-        capture_output=True,
-        text=True,
-        env={**os.environ, "MUJOCO_GL": "glfw"},
-        timeout=240,
-        check=False,
-    )
+    with virtual_display() as display:
+        proc = subprocess.run(
+            cmd,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "MUJOCO_GL": "glfw", "DISPLAY": display},
+            timeout=240,
+            check=False,
+        )
     assert proc.returncode == 0, proc.stderr
     assert load_trajectory(out / "trajectory.npz").effectors[0].joints == tuple(joints)
 

@@ -1,5 +1,5 @@
 """The live viewer for real: MuJoCo's passive viewer in a subprocess under a virtual X
-server (xvfb-run, MUJOCO_GL=glfw) follows the scene's moving targets, writes the
+server of the test's own (Xvfb, MUJOCO_GL=glfw) follows the scene's moving targets, writes the
 trajectory of the frames it showed and exits 0; without a display it says so in one
 line. Dragging and pausing are checked on the viewer's own target logic and MjData.
 Start-up under signals (issue 24, item 10): 20 SIGINT/SIGTERM at random moments of the
@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import random
 import select
-import shutil
 import signal
 import subprocess
 import sys
@@ -43,14 +42,13 @@ from humanoid_ik.run.runner import SceneRunner
 from tests.processes import (
     MESSAGE,
     STATUS,
-    TAG,
     ended,
     handles,
     none_left,
     signal_when,
     start,
     temporaries,
-    xvfb_run,
+    virtual_display,
 )
 from tests.robots import robot_file
 
@@ -58,13 +56,14 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def view(tmp_path: Path, *args: str) -> tuple[subprocess.CompletedProcess, Path]:
-    """`humanoid-ik view ARGS --out DIR` under xvfb-run with MUJOCO_GL=glfw."""
+    """`humanoid-ik view ARGS --out DIR` on a virtual display of its own, MUJOCO_GL=glfw."""
     out = tmp_path / "view"
-    env = {**os.environ, "MUJOCO_GL": "glfw"}
-    cmd = [*xvfb_run(), sys.executable, "-m", "humanoid_ik", "view", *args, "--out", str(out)]
-    proc = subprocess.run(
-        cmd, capture_output=True, text=True, env=env, timeout=180, cwd=tmp_path, check=False
-    )
+    cmd = [sys.executable, "-m", "humanoid_ik", "view", *args, "--out", str(out)]
+    with virtual_display() as display:
+        env = {**os.environ, "MUJOCO_GL": "glfw", "DISPLAY": display}
+        proc = subprocess.run(
+            cmd, capture_output=True, text=True, env=env, timeout=180, cwd=tmp_path, check=False
+        )
     return proc, out
 
 
@@ -128,44 +127,28 @@ def test_view_urdf_model_and_body(tmp_path):
     assert len(t.joint_names) == 7
 
 
-def _children(pid: int) -> list[int]:
-    """The processes whose parent is ``pid`` (from /proc)."""
-    out = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            out.append(int(stat.parent.name))
-    return out
-
-
 @pytest.mark.slow
 def test_view_sigterm_writes_the_trajectory(tmp_path):
     """SIGTERM to a running viewer (no --duration): the frames shown so far are written
     as an interrupted trajectory, the hand was on the target, and the exit status is 143."""
     out = tmp_path / "view"
-    cmd = [*xvfb_run(), sys.executable, "-m", "humanoid_ik", "view", "circle", "--out", str(out)]
-    env = {**os.environ, "MUJOCO_GL": "glfw"}
-    proc = subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path
-    )
-    try:
-        ready, _, _ = select.select([proc.stderr], [], [], 120)
-        assert ready, "the viewer did not open within 120 s"
-        assert "viewer open" in proc.stderr.readline()
-        time.sleep(2.0)  # some frames
-        (viewer,) = [
-            c
-            for c in _children(proc.pid)
-            if b"humanoid_ik" in Path(f"/proc/{c}/cmdline").read_bytes()
-        ]
-        os.kill(viewer, signal.SIGTERM)
-        stdout, stderr = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    cmd = [sys.executable, "-m", "humanoid_ik", "view", "circle", "--out", str(out)]
+    with virtual_display() as display:
+        env = {**os.environ, "MUJOCO_GL": "glfw", "DISPLAY": display}
+        proc = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path
+        )
+        try:
+            ready, _, _ = select.select([proc.stderr], [], [], 120)
+            assert ready, "the viewer did not open within 120 s"
+            assert "viewer open" in proc.stderr.readline()
+            time.sleep(2.0)  # some frames
+            proc.send_signal(signal.SIGTERM)
+            stdout, stderr = proc.communicate(timeout=60)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
     assert proc.returncode == 143, stderr
     assert "humanoid-ik: interrupted after" in stderr and "wrote" in stdout
     t = load_trajectory(out / "trajectory.npz")
@@ -390,36 +373,9 @@ def test_viewer_markers_are_sized_as_a_films(tmp_path):
 
 @pytest.fixture(scope="module")
 def xvfb() -> Iterator[str]:
-    """A virtual X server of this module's own (``Xvfb -displayfd``: it picks a free
-    display and writes its number once it serves); stopped at the end and checked gone,
-    with every process that carries its tag."""
-    exe = shutil.which("Xvfb")
-    assert exe is not None, "Xvfb is not installed (Debian: apt-get install xvfb)"
-    tag = uuid.uuid4().hex
-    r, w = os.pipe()
-    server = subprocess.Popen(
-        [exe, "-displayfd", str(w), "-nolisten", "tcp", "-noreset", "-screen", "0", "800x600x24"],
-        pass_fds=(w,),
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        env={**os.environ, TAG: tag},
-    )
-    os.close(w)
-    try:
-        ready, _, _ = select.select([r], [], [], 30)
-        number = os.read(r, 16).decode().strip() if ready else ""
-        assert number.isdigit(), f"Xvfb gave no display within 30 s ({number!r})"
-        yield f":{number}"
-    finally:
-        os.close(r)
-        server.terminate()
-        try:
-            server.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            server.kill()
-            server.wait()
-    assert none_left(tag) == [], "Xvfb still runs"
+    """A virtual X server of this module's own."""
+    with virtual_display() as display:
+        yield display
 
 
 def _loaded(proc: subprocess.Popen, library: bytes) -> bool:
