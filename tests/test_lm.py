@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import importlib.machinery
 import io
-import itertools
 import math
 import subprocess
 import sys
@@ -461,6 +460,18 @@ def test_the_kernel_refuses_bad_arguments():
         call(quat=np.zeros(3))
     with pytest.raises(ValueError, match="Kernel"):
         _lm_kernel.Kernel(b"not a model")
+    nearest = _lm_kernel.seed_nearest
+    out = np.empty(2, dtype=np.int64)
+    with pytest.raises(ValueError, match="3 values per pose, got 4"):
+        nearest(np.zeros(4), np.zeros(9), np.zeros(3), None, 0.3, out)
+    with pytest.raises(ValueError, match="rotations must have 18 values"):
+        nearest(np.zeros(6), np.zeros(9), np.zeros(3), np.zeros(9), 0.3, out)
+    with pytest.raises(ValueError, match="length must be >= 0"):
+        nearest(np.zeros(6), np.zeros(18), np.zeros(3), None, -1.0, out)
+    with pytest.raises(TypeError, match="int64"):
+        nearest(np.zeros(6), np.zeros(18), np.zeros(3), None, 0.3, np.empty(2))
+    assert nearest(np.array([0.0, 0, 2, 0, 0, 1]), np.zeros(18), np.zeros(3), None, 0.3, out) == 2
+    assert out.tolist() == [1, 0]
     # the kernel builds hinge and slide columns only: a ball's dof is refused
     ball = Chain.from_xml_string(
         '<mujoco><worldbody><body><joint type="ball"/><geom size=".1"/>'
@@ -476,6 +487,87 @@ def test_the_kernel_refuses_bad_arguments():
     ok = kb.descend(ball.data.qpos, ball.qpos_adr, ball.dof_adr, True, ball.ee_id,
                     ball.lower, ball.upper, np.zeros(3), None, o, ball.q.copy())  # fmt: skip
     assert ok[1] >= 0
+
+
+_PATH_XML = """<mujoco><compiler angle="radian"/><worldbody>
+  <body name="base" pos="0.1 0.2 0.8" quat="0.9 0.1 0.2 0.3" {base}>
+    {free}<geom size="0.05"/>
+    <body name="l1" pos="0 0 0.1">
+      <joint name="j1" axis="0 0 1" pos="0.01 0 0" range="-2 2"/><geom size="0.04"/>
+      <body name="l2" pos="0 0.05 0.2" euler="0.3 0 0.2">
+        <joint name="j2" axis="0 1 0" pos="0 0 0.02" ref="0.4" range="-1.5 1.5"/>
+        <joint name="frozen_ball" type="ball" pos="0.01 0 0"/>
+        <geom size="0.04"/>
+        <body name="l3" pos="0.25 0 0">
+          <joint name="frozen_slide" type="slide" axis="1 0 0" range="-0.1 0.1"/>
+          <joint name="frozen_hinge" axis="1 0 0"/>
+          <joint name="j3" axis="0 0 1" pos="0.02 0.01 0" range="-2 2"/><geom size="0.03"/>
+          <body name="l4" pos="0.2 0 0" quat="0.7 0 0.7 0">
+            <joint name="j4" axis="0 1 0" range="-2 2"/>
+            <joint name="j5" axis="1 0 0" range="-2 2"/>
+            <joint name="j6" axis="0 0 1" range="-2 2"/>
+            <inertial pos="0.05 0.01 0" quat="0.8 0.6 0 0" mass="0.3"
+                      diaginertia="0.001 0.001 0.001"/>
+            <site name="at_inertia" pos="0.05 0.01 0" quat="0.8 0.6 0 0"/>
+            <site name="tip" pos="0.1 0.02 0.03"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </body>
+  <body name="other"><joint name="o" axis="0 0 1"/><geom size="0.02" pos="1 0 0"/></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("base", ["free", "mocap"])
+@pytest.mark.parametrize("end", ["tip", "at_inertia", "l4"])
+def test_the_kernel_computes_the_path_as_mj_kinematics_does(base, end):
+    """The kernel computes only the frames of the bodies on the way to the end effector
+    (a floating or a mocap base, a frozen ball joint, slide and hinge among the chain's
+    joints, off-centre hinges with a reference angle, a site at its body's
+    inertial frame, a body): every pose it reports is measured with MuJoCo's own bits.
+    After 0 to 5 iterations, its position error is exactly the one of mj_kinematics at
+    the pose it returns (same operations, same order: no tolerance), the orientation
+    error to 1e-12."""
+    xml = _PATH_XML.format(
+        base='mocap="true"' if base == "mocap" else "",
+        free="<freejoint/>" if base == "free" else "",
+    )
+    joints = ["j1", "j2", "j3", "j4", "j5", "j6"]
+    site = None if end == "l4" else end
+    c = Chain.from_xml_string(xml, site, joints, body="l4" if end == "l4" else None)
+    m = c.model
+    if end == "at_inertia":
+        assert m.site_sameframe[c.ee_id] == mujoco.mjtSameFrame.mjSAMEFRAME_INERTIA
+    frozen = {"frozen_ball": [0.9, 0.3, -0.2, 0.1], "frozen_hinge": [0.3], "frozen_slide": [0.05]}
+    if base == "free":
+        frozen["base"] = [0.3, -0.1, 0.9, 0.8, 0.2, -0.3, 0.4]
+    for name, value in frozen.items():
+        jid = m.joint(name).id if name != "base" else m.body("base").jntadr[0]
+        adr = m.jnt_qposadr[jid]
+        c.data.qpos[adr : adr + len(value)] = value
+    q_star = np.array([0.4, -0.3, 0.5, 0.6, -0.5, 0.7])
+    p, R = c.fk(q_star)
+    k = kernel(c)
+    check = mujoco.MjData(m)
+    for quat in (None, mat_to_quat(R)):
+        for iterations in range(6):
+            o = (1e-12, 1e-12, 0.25, 0.1, 1e-6, iterations, 4)
+            q = c.clip(q_star + 0.3)
+            _, _, _, ep, er = k.descend(c.data.qpos, c.qpos_adr, c.dof_adr, site is not None,
+                                        c.ee_id, c.lower, c.upper, p, quat, o, q)  # fmt: skip
+            check.qpos[:] = c.data.qpos
+            check.qpos[c.qpos_adr] = q
+            mujoco.mj_kinematics(m, check)
+            x = check.site_xpos[c.ee_id] if site else check.xpos[c.ee_id]
+            d = [float(x[i] - p[i]) for i in range(3)]
+            assert ep == math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            if quat is not None:
+                frame = check.site_xmat[c.ee_id] if site else check.xmat[c.ee_id]
+                want = orientation_error(frame.reshape(3, 3), quat)
+                assert er == pytest.approx(want, abs=1e-12)
+    res = make_solver("lm").solve(c, Target(p, mat_to_quat(R)), q0=c.clip(q_star + 0.3))
+    assert res.converged  # and the frames it computes take it to the pose
 
 
 def test_a_kernel_serves_one_thread_at_a_time():
@@ -543,9 +635,14 @@ def test_seed_library_ranks_by_distance_and_angle(right_arm):
             R = quat_to_mat(tgt.quat)
             cos = (np.einsum("ij,nij->n", R, lib.rotations) - 1.0) / 2.0
             cost = cost + 0.3 * (1.0 - cos)
-        want = np.argsort(cost)[:6]
-        got = np.array(list(itertools.islice(lib.ranked(tgt), 6)))
+        want = np.argsort(cost, kind="stable")[:6]
+        got = lib.nearest(tgt, 6)
         np.testing.assert_array_equal(got, lib.q[want])
+        np.testing.assert_array_equal(lib.nearest(tgt, 1), lib.q[want[:1]])
+        assert lib.nearest(tgt, 10_000).shape == lib.q.shape  # all of them, ranked
+        np.testing.assert_array_equal(
+            lib.nearest(tgt, 10_000), lib.q[np.argsort(cost, kind="stable")]
+        )
         p, _ = c.fk(got[0])  # the library's FK is MuJoCo's
         np.testing.assert_allclose(p, lib.positions[want[0]], atol=1e-12)
         starts = list(restart_poses(c, c.q, tgt, restarts=5, library_seeds=2, seed=0))

@@ -7,11 +7,13 @@
    lm (solvers/jacobian/lm.py keeps the restarts in Python):
 
      copy the robot's qpos in, put the start q on the chain's joints, then per iteration
-     mj_kinematics, the task error from the end effector's position and its body's
-     quaternion and rotation (the target orientation is moved into the body's frame at
-     the first pass), the stall test, the chain's Jacobian from the joints' axes and anchors
-     (chain_jacobian), J' W J + lambda I
-     (mju_sqrMatTD), -J' W e (mju_mulMatTVec), the linear term in x = q + dq
+     the forward kinematics of the bodies on the way from the world to the end effector
+     only (at the first pass; after it, of those the chain's joints move), computed as
+     mj_kinematics computes them (chain_kinematics: the same bits), the task error from
+     the end effector's position and its body's quaternion and rotation (the target
+     orientation is moved into the body's frame at the first pass), the stall test, the
+     chain's Jacobian from the joints' axes and anchors (chain_jacobian), J' W J +
+     lambda I (mju_sqrMatTD), -J' W e (mju_mulMatTVec), the linear term in x = q + dq
      (mju_mulMatVec) and mju_boxQP between the joint ranges, warm-started at q.
 
    The per-call buffers come from the kernel's own mjData stack (mj_markStack /
@@ -94,6 +96,106 @@ static void put_joints(const Problem* p, mjData* d, const mjtNum* x) {
   for (int i = 0; i < p->n; i++) d->qpos[p->qadr[i]] = x[i];
 }
 
+/* The bodies from the world's child down to the end effector's body, parents first (in
+   mj_kinematics's order), into path (nbody ints); their count is returned and *moving
+   set to the index in path of the topmost body with a chain joint: the bodies from there
+   on are the ones the chain's joints move. Returns 0 when a chain joint is not above the
+   end effector (then every pass runs mj_kinematics). */
+static int chain_bodies(const mjModel* m, const Problem* p, int* path, int* moving) {
+  int count = 0, top = -1;
+  for (int b = p->body; b > 0; b = m->body_parentid[b]) path[count++] = b; /* end first */
+  for (int i = 0; i < p->n; i++) {
+    int body = m->jnt_bodyid[m->dof_jntid[p->dof[i]]], k = 0;
+    while (k < count && path[k] != body) k++;
+    if (k == count) return 0;
+    if (k > top) top = k;
+  }
+  for (int i = 0, j = count - 1; i < j; i++, j--) {
+    int b = path[i];
+    path[i] = path[j], path[j] = b;
+  }
+  *moving = count - 1 - top;
+  return count;
+}
+
+/* mj_kinematics's frames (xpos, xquat, xmat, and each joint's xanchor and xaxis) of the
+   `count` bodies of `path`, each from its parent's frame, its qpos (or its mocap pose),
+   with the same operations in the same order as mj_kinematics (its first part): the
+   same bits. Nothing else is computed: the kernel's own data serves this loop only. */
+static void chain_kinematics(const mjModel* m, mjData* d, const int* path, int count) {
+  for (int k = 0; k < count; k++) {
+    int i = path[k], pid = m->body_parentid[i];
+    int adr = m->body_jntadr[i], num = m->body_jntnum[i];
+    mjtNum xpos[3], xquat[4];
+    if (num == 1 && m->jnt_type[adr] == mjJNT_FREE) {
+      int qadr = m->jnt_qposadr[adr];
+      mju_copy3(xpos, d->qpos + qadr);
+      mju_copy4(xquat, d->qpos + qadr + 3);
+      mju_normalize4(xquat);
+      mju_copy3(d->xanchor + 3 * adr, xpos);
+      mju_copy3(d->xaxis + 3 * adr, m->jnt_axis + 3 * adr);
+      num = 0;
+    } else {
+      const mjtNum *bodypos = m->body_pos + 3 * i, *bodyquat = m->body_quat + 4 * i;
+      mjtNum mocap[4];
+      if (m->body_mocapid[i] >= 0) {
+        bodypos = d->mocap_pos + 3 * m->body_mocapid[i];
+        mju_copy4(mocap, d->mocap_quat + 4 * m->body_mocapid[i]);
+        mju_normalize4(mocap);
+        bodyquat = mocap;
+      }
+      if (pid) {
+        mju_mulMatVec3(xpos, d->xmat + 9 * pid, bodypos);
+        mju_addTo3(xpos, d->xpos + 3 * pid);
+        mju_mulQuat(xquat, d->xquat + 4 * pid, bodyquat);
+      } else {
+        mju_copy3(xpos, bodypos);
+        mju_copy4(xquat, bodyquat);
+      }
+    }
+    for (int j = adr; j < adr + num; j++) {
+      int qadr = m->jnt_qposadr[j];
+      mjtNum xanchor[3], xaxis[3];
+      mju_rotVecQuat(xaxis, m->jnt_axis + 3 * j, xquat);
+      mju_rotVecQuat(xanchor, m->jnt_pos + 3 * j, xquat);
+      mju_addTo3(xanchor, xpos);
+      if (m->jnt_type[j] == mjJNT_SLIDE) {
+        mju_addToScl3(xpos, xaxis, d->qpos[qadr] - m->qpos0[qadr]);
+      } else { /* hinge or ball (a free joint is a body's only joint) */
+        mjtNum qloc[4], vec[3];
+        if (m->jnt_type[j] == mjJNT_BALL) {
+          mju_copy4(qloc, d->qpos + qadr);
+          mju_normalize4(qloc);
+        } else {
+          mju_axisAngle2Quat(qloc, m->jnt_axis + 3 * j, d->qpos[qadr] - m->qpos0[qadr]);
+        }
+        mju_mulQuat(xquat, xquat, qloc);
+        mju_rotVecQuat(vec, m->jnt_pos + 3 * j, xquat);
+        mju_sub3(xpos, xanchor, vec);
+      }
+      mju_copy3(d->xanchor + 3 * j, xanchor);
+      mju_copy3(d->xaxis + 3 * j, xaxis);
+    }
+    mju_normalize4(xquat);
+    mju_copy4(d->xquat + 4 * i, xquat);
+    mju_copy3(d->xpos + 3 * i, xpos);
+    mju_quat2Mat(d->xmat + 9 * i, xquat);
+  }
+}
+
+/* A site end effector's frame after chain_kinematics, as mj_kinematics places it
+   (mj_local2Global, from its body's inertial frame where the site sits on it): its
+   position, and its rotation too when `rotation` (the first pass of a pose target). */
+static void site_frame(const mjModel* m, mjData* d, const Problem* p, int rotation) {
+  int id = p->ee_id, b = p->body, same = m->site_sameframe[id];
+  if (same == mjSAMEFRAME_INERTIA || same == mjSAMEFRAME_INERTIAROT) {
+    mj_local2Global(d, d->xipos + 3 * b, d->ximat + 9 * b, m->body_ipos + 3 * b,
+                    m->body_iquat + 4 * b, b, m->body_sameframe[b]);
+  }
+  mj_local2Global(d, d->site_xpos + 3 * id, rotation ? d->site_xmat + 9 * id : NULL,
+                  m->site_pos + 3 * id, rotation ? m->site_quat + 4 * id : NULL, b, same);
+}
+
 /* The chain's Jacobian J (rows, n) at the end effector's point from the joint frames
    mj_kinematics computed: a hinge's column is axis x (point - anchor) (and the axis for
    the rotation rows), a slide's its axis (and zero). The chain's joints are hinges and
@@ -144,13 +246,21 @@ static Outcome descend(const mjModel* m, mjData* d, const Problem* p, mjtNum* q)
   mjtNum* x = mj_stackAllocNum(d, n);
   mjtNum* best_q = mj_stackAllocNum(d, n);
   mjtNum* history = mj_stackAllocNum(d, p->history);
+  int* path = mj_stackAllocInt(d, (size_t)m->nbody);
+  int moving = 0;
+  const int count = chain_bodies(m, p, path, &moving);
 
   memcpy(x, q, sizeof(mjtNum) * n);
   memcpy(best_q, q, sizeof(mjtNum) * n);
   for (int k = 0; k < p->history; k++) history[k] = INFINITY;
   for (it = 0; it <= p->max_iterations; it++) {
     put_joints(p, d, x);
-    mj_kinematics(m, d);
+    if (!count) {
+      mj_kinematics(m, d);
+    } else { /* the whole path at the first pass, then the part the chain moves */
+      chain_kinematics(m, d, path + (it ? moving : 0), count - (it ? moving : 0));
+      if (p->site) site_frame(m, d, p, it == 0 && pose);
+    }
     if (it == 0 && pose) {
       /* target_body = quat * s^-1 * b: the body orientation that puts the site on the
          target, from this pass's site and body frames (the site's placement on its
@@ -229,9 +339,11 @@ static int Kernel_init(Kernel* self, PyObject* args, PyObject* kwds) {
                     "Kernel: the bytes are not a model saved by mujoco.mj_saveModel");
     return -1;
   }
-  /* room on the stack for the largest call: (6 + 6) nv + 2 nv^2 + 11 nv + HISTORY_MAX */
+  /* room on the stack for the largest call: (6 + 6) nv + 2 nv^2 + 11 nv + HISTORY_MAX
+     numbers and nbody ints */
   mjtSize nv = m->nv;
-  m->narena += (mjtSize)sizeof(mjtNum) * (23 * nv + 2 * nv * nv + HISTORY_MAX) + STACK_SLACK;
+  m->narena += (mjtSize)sizeof(mjtNum) * (23 * nv + 2 * nv * nv + HISTORY_MAX) +
+               (mjtSize)sizeof(int) * m->nbody + 64 + STACK_SLACK;
   mjData* d = mj_makeData(m);
   if (!d) {
     mj_deleteModel(m);
@@ -359,7 +471,7 @@ static PyObject* Kernel_descend(Kernel* self, PyObject* const* args, Py_ssize_t 
   p.rows = p.target_quat ? 6 : 3;
 
   size_t need = sizeof(mjtNum) * ((size_t)12 * p.nv + 2 * (size_t)p.n * p.n + 11 * (size_t)p.n +
-                                  (size_t)p.history);
+                                  (size_t)p.history) + sizeof(int) * (size_t)m->nbody + 64;
   size_t free_bytes = (size_t)d->narena - d->parena - d->pstack;
   if (need + STACK_SLACK > free_bytes) {
     PyErr_Format(PyExc_MemoryError, "lm kernel: %zu bytes of MuJoCo stack needed, %zu free",
@@ -389,6 +501,118 @@ static PyObject* Kernel_get_nq(Kernel* self, void* closure) {
 static PyObject* Kernel_get_nv(Kernel* self, void* closure) {
   return PyLong_FromLongLong(self->m ? (long long)self->m->nv : 0);
 }
+
+/* ------------------------------------------------------------------ seed ranking */
+
+PyDoc_STRVAR(seed_nearest_doc,
+"seed_nearest(positions, rotations, target_pos, target_rot, length, out) -> int\n"
+"\n"
+"The seed library's poses nearest a target (solvers/jacobian/seeds.py): their indices\n"
+"into out (k,) int64, writable, nearest first, by the cost |positions[i] - target_pos|\n"
+"+ length (1 - cos), cos = (trace(target_rot' R_i) - 1) / 2 from the flattened\n"
+"rotations (9 per pose) for a pose target (target_rot (9,)), the distance alone when\n"
+"target_rot is None; equal costs in index order. Returns how many were written\n"
+"(min(k, size)). positions (3 size,) sorted by x (unsorted ones give a wrong ranking,\n"
+"never a bad access), rotations (9 size,) float64,\n"
+"length >= 0. The poses are visited outward from the target's x, nearest x first,\n"
+"until the x gap alone exceeds the k-th cost found (cost >= distance >= x gap); a pose\n"
+"farther than that cost is not measured further. The same ranking as a full sort, in\n"
+"a fixed order: the same on every machine.");
+
+/* pose i's cost enters the k best found so far: below the last, or equal and earlier */
+static int enters(mjtNum c, Py_ssize_t i, const mjtNum* best, const int64_t* out,
+                  Py_ssize_t at) {
+  return c < best[at] || (c == best[at] && i < out[at]);
+}
+
+static PyObject* seed_nearest(PyObject* module, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 6) {
+    PyErr_Format(PyExc_TypeError, "seed_nearest() takes 6 arguments, got %zd", nargs);
+    return NULL;
+  }
+  Py_buffer views[5];
+  int held = 0;
+  PyObject* result = NULL;
+  Py_ssize_t size = 0, k = 0;
+  if (get_array(args[0], &views[held], 'd', -1, 0, "positions", &size) < 0) goto done;
+  const mjtNum* pos = views[held++].buf;
+  if (size % 3) {
+    PyErr_Format(PyExc_ValueError, "positions must have 3 values per pose, got %zd", size);
+    goto done;
+  }
+  size /= 3;
+  if (get_array(args[2], &views[held], 'd', 3, 0, "target_pos", NULL) < 0) goto done;
+  const mjtNum* tp = views[held++].buf;
+  const mjtNum *rot = NULL, *tr = NULL;
+  if (args[3] != Py_None) {
+    if (get_array(args[1], &views[held], 'd', 9 * size, 0, "rotations", NULL) < 0) goto done;
+    rot = views[held++].buf;
+    if (get_array(args[3], &views[held], 'd', 9, 0, "target_rot", NULL) < 0) goto done;
+    tr = views[held++].buf;
+  }
+  mjtNum length = PyFloat_AsDouble(args[4]);
+  if (length == -1.0 && PyErr_Occurred()) goto done;
+  if (!(length >= 0.0)) {
+    PyErr_Format(PyExc_ValueError, "length must be >= 0, got %g", (double)length);
+    goto done;
+  }
+  if (get_array(args[5], &views[held], 'i', -1, 1, "out", &k) < 0) goto done;
+  int64_t* out = views[held++].buf;
+  if (k > size) k = size;
+  mjtNum* best = PyMem_Malloc(sizeof(mjtNum) * (size_t)(k ? k : 1));
+  if (!best) {
+    PyErr_NoMemory();
+    goto done;
+  }
+  Py_ssize_t have = 0;
+  Py_BEGIN_ALLOW_THREADS
+  /* the first pose at or right of the target's x; then outward, nearest x first */
+  Py_ssize_t left = 0, right = size;
+  while (left < right) {
+    Py_ssize_t mid = left + (right - left) / 2;
+    if (pos[3 * mid] < tp[0]) left = mid + 1; else right = mid;
+  }
+  right = left, left = left - 1;
+  while (k && (left >= 0 || right < size)) {
+    mjtNum gap_l = left >= 0 ? tp[0] - pos[3 * left] : INFINITY;
+    mjtNum gap_r = right < size ? pos[3 * right] - tp[0] : INFINITY;
+    int go_left = gap_l <= gap_r;
+    mjtNum gap = go_left ? gap_l : gap_r;
+    /* the margin keeps rounding from stopping before a pose that would enter */
+    if (have == k && gap > best[k - 1] * (1.0 + 1e-9)) break;
+    Py_ssize_t i = go_left ? left-- : right++;
+    const mjtNum* x = pos + 3 * i;
+    mjtNum dx = x[0] - tp[0], dy = x[1] - tp[1], dz = x[2] - tp[2];
+    mjtNum sq = dx * dx + dy * dy + dz * dz;
+    if (have == k && sq > best[k - 1] * best[k - 1] * (1.0 + 1e-9)) continue;
+    mjtNum c = sqrt(sq);
+    if (rot) {
+      const mjtNum* r = rot + 9 * i;
+      mjtNum dot = 0.0;
+      for (int j = 0; j < 9; j++) dot += r[j] * tr[j];
+      c += length * (1.0 - (dot - 1.0) * 0.5);
+    }
+    if (have == k && !enters(c, i, best, out, k - 1)) continue;
+    Py_ssize_t at = have < k ? have++ : k - 1;
+    while (at > 0 && enters(c, i, best, out, at - 1)) {
+      best[at] = best[at - 1], out[at] = out[at - 1];
+      at--;
+    }
+    best[at] = c, out[at] = i;
+  }
+  Py_END_ALLOW_THREADS
+  PyMem_Free(best);
+  result = PyLong_FromSsize_t(have);
+done:
+  for (int j = 0; j < held; j++) PyBuffer_Release(&views[j]);
+  return result;
+}
+
+static PyMethodDef module_methods[] = {
+    {"seed_nearest", (PyCFunction)(void (*)(void))seed_nearest, METH_FASTCALL,
+     seed_nearest_doc},
+    {NULL, NULL, 0, NULL},
+};
 
 static PyMethodDef Kernel_methods[] = {
     {"descend", (PyCFunction)(void (*)(void))Kernel_descend, METH_FASTCALL, descend_doc},
@@ -429,6 +653,7 @@ static struct PyModuleDef module = {
     .m_name = "humanoid_ik.solvers.jacobian._lm_kernel",
     .m_doc = "lm's iteration loop in C, on MuJoCo's own headers and library.",
     .m_size = -1,
+    .m_methods = module_methods,
 };
 
 PyMODINIT_FUNC PyInit__lm_kernel(void) {

@@ -29,3 +29,15 @@ class Kernel:
         q: NDArray[np.float64],
         /,
     ) -> tuple[bool, int, float, float, float]: ...
+
+def seed_nearest(
+    positions: NDArray[np.float64],
+    rotations: NDArray[np.float64],
+    target_pos: NDArray[np.float64],
+    target_rot: NDArray[np.float64] | None,
+    length: float,
+    out: NDArray[np.int64],
+    /,
+) -> int:
+    """The indices of the seed library's poses nearest a target into ``out``, nearest
+    first; returns how many (``seeds.SeedLibrary.nearest``)."""

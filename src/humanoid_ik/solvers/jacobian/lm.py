@@ -24,10 +24,12 @@ iterate is inside the ranges by construction.
 One start, the iteration loop, runs in C: the extension module
 ``humanoid_ik.solvers.jacobian._lm_kernel`` (``_lm_kernel.c``, built by ``setup.py``
 against the headers and the ``libmujoco`` of the ``mujoco`` wheel; there is no other
-implementation and no fallback). Per iteration it runs one ``mj_kinematics``, the error
+implementation and no fallback). Per iteration it computes the frames of the bodies
+from the world to the end effector only (after the first pass, only those the chain's
+joints move), with ``mj_kinematics``'s operations in its order (the same bits), the error
 from the end effector's position and its body's quaternion and rotation (the target
 orientation is moved into the body's frame at the start's first pass), the chain's
-Jacobian columns from the joint axes and anchors ``mj_kinematics`` wrote, ``J' W J``
+Jacobian columns from the joint axes and anchors just computed, ``J' W J``
 and ``J' W e`` by ``mju_sqrMatTD`` / ``mju_mulMatTVec`` and the box QP, with no call
 back into Python. Those columns, ``axis x (p - anchor)`` per hinge (the axis alone
 per slide), are MuJoCo's Jacobian's (``mj_jacSite``, to rounding), built in C without
@@ -84,18 +86,10 @@ from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.analytic.elbow import POLE_TOL, elbow_frame, pole_angle
 from humanoid_ik.solvers.base import Solver, error_buffers
 from humanoid_ik.solvers.iterate import Best, pose_cost
+from humanoid_ik.solvers.jacobian import _lm_kernel
 from humanoid_ik.solvers.jacobian.loop import OPTION_BOUNDS
 from humanoid_ik.solvers.jacobian.seeds import restart_poses, seed_library
 from humanoid_ik.solvers.options import SolverOptions
-
-# mujoco (imported above) has loaded libmujoco, which the kernel links to (setup.py)
-try:
-    from humanoid_ik.solvers.jacobian import _lm_kernel
-except ImportError as exc:  # not built (a bare checkout) or built for another MuJoCo
-    raise ImportError(
-        f"humanoid_ik: lm's compiled kernel does not load ({exc}); build it with "
-        "pip install . (pip install -e . in a checkout; it needs a C compiler)"
-    ) from exc
 
 __all__ = ["KERNEL_KEY", "LM", "LMOptions", "kernel", "pole_steps"]
 
