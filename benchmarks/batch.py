@@ -1,10 +1,12 @@
-"""Pose solves per second with ``solve_batch`` on real arms, on 1 and on 2 processes.
+"""Pose solves per second with ``solve_batch`` on real arms, on 1 and on 2 workers.
 
 Arms from example-robot-data (the test extra): G1's left arm (7 hinges, ``auto`` picks
-``lm``) and UR5 (6 hinges); the bundled arm through ``closed_form``'s vectorised batch
+``lm``: its compiled loop, on 1 and 2 threads) and UR5 (6 hinges, ``subproblem``: 1 and 2
+processes); the bundled arm through ``closed_form``'s vectorised batch
 for comparison. Targets are FK poses of seeded random in-range joints, every solve
 from the home pose. Prints targets/s by wall time (the processes' start included) and
-the calling process's CPU time (``time.process_time``; the workers' CPU is not in it)::
+the calling process's CPU time (``time.process_time``: its threads' too, not the worker
+processes')::
 
     python benchmarks/batch.py --targets 20000
 """
@@ -40,7 +42,7 @@ def main() -> None:
     ap.add_argument("--targets", type=int, default=20000)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
-    print("| arm | solver | processes | solved | targets/s wall | CPU s (caller) |")
+    print("| arm | solver | workers | solved | targets/s wall | CPU s (caller) |")
     print("|---|---|---|---|---|---|")
     for name, chain in arms().items():
         targets = fk_poses(chain, args.targets, args.seed)

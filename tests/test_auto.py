@@ -211,9 +211,9 @@ def test_ur5_and_kinova_pose_targets_get_subproblem(name):
 def test_solve_by_name_reuses_one_solver_object_per_name_and_options():
     from humanoid_ik.solvers import one_call
 
-    a = one_call._solver_for("lm", {"restarts": 5})
-    assert one_call._solver_for("lm", {"restarts": 5}) is a
-    assert one_call._solver_for("lm", {"restarts": 6}) is not a
+    a = one_call.solver_for("lm", {"restarts": 5})
+    assert one_call.solver_for("lm", {"restarts": 5}) is a
+    assert one_call.solver_for("lm", {"restarts": 6}) is not a
     chain = Chain()
     target = [0.35, -0.30, 1.15]
     assert np.array_equal(

@@ -7,7 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from humanoid_ik import Chain, TargetError, load_model, solve, solve_batch
+from humanoid_ik import Chain, Target, TargetError, load_model, solve, solve_batch
+from humanoid_ik.core.limbs import limb_chain
+from humanoid_ik.core.robot import Robot
 from humanoid_ik.errors import SolverError
 from tests.chains import fk_poses
 from tests.robots import robot_file
@@ -36,7 +38,39 @@ def test_batch_answers_are_the_single_calls(g1_arm, workers):
     for t, got in zip(targets, batch, strict=True):
         want = solve(g1_arm, t, "auto", q0=q0)
         assert got == want  # joints, status, iterations, errors, solver and message
+        assert got.details == want.details == {"auto": ("lm",)}
         assert got.converged and got.position_error < 1e-4
+    np.testing.assert_array_equal(g1_arm.q, batch[-1].q)  # the scratch data at the last
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_compiled_loop_gives_the_single_calls_answers(workers):
+    """``lm`` on Baxter's left arm (half its targets from home need restarts: the
+    library's poses and the random ones, in the compiled loop), pose and position
+    targets mixed, and two out of reach (no start converges: solved again by the one
+    call, which measures them): every result equals ``solve``'s, on one or two threads."""
+    baxter = limb_chain(Robot(load_model(robot_file("baxter"))), "left_arm")
+    targets = fk_poses(baxter, 30, seed=5)
+    mixed = [t if k % 3 else Target(t.position) for k, t in enumerate(targets)]
+    mixed += [Target([3.0, 0.0, 1.0]), Target([0.0, 3.0, 1.0], targets[0].quat)]
+    q0 = baxter.q_home
+    batch = solve_batch(baxter, mixed, "lm", q0=q0, workers=workers)
+    iterations = []
+    for t, got in zip(mixed, batch, strict=True):
+        want = solve(baxter, t, "lm", q0=q0)
+        assert got == want and got.details == want.details
+        iterations.append(got.iterations)
+    assert [r.converged for r in batch[-2:]] == [False, False]
+    assert sum(r.converged for r in batch) == 30 and max(iterations) > 50  # restarts ran
+
+
+def test_other_solvers_go_to_worker_processes(g1_arm):
+    """``dls`` (Python) on 2 worker processes, each with its own copy of the robot: the
+    single calls' results."""
+    targets = fk_poses(g1_arm, 8, seed=3)
+    batch = solve_batch(g1_arm, targets, "dls", q0=g1_arm.q_home, workers=2)
+    for t, got in zip(targets, batch, strict=True):
+        assert got == solve(g1_arm, t, "dls", q0=g1_arm.q_home)
 
 
 def test_positions_as_an_array_and_options(g1_arm):

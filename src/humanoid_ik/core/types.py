@@ -231,6 +231,31 @@ class IKResult:
         rest = (self.orientation_error, self.status.value, self.solver, self.message)
         return (IKResult, (*fields, *rest, dict(self.details)))
 
+    @classmethod
+    def unchecked(
+        cls,
+        q: NDArray[np.float64],
+        converged: bool,
+        iterations: int,
+        position_error: float,
+        orientation_error: float | None,
+        status: Status,
+        solver: str,
+        message: str = "",
+        details: Mapping[str, Any] = _NO_DETAILS,
+    ) -> IKResult:
+        """A result from values a solver already made right (``q`` a read-only float64
+        ``(n,)`` array of its own, ``status`` a :class:`Status`, ``details`` read-only),
+        taken as they are: what :func:`~humanoid_ik.solvers.batch.solve_batch` builds for
+        each of many answers of the compiled ``lm`` loop (about 2 us a result saved)."""
+        new = object.__new__(cls)
+        new.__dict__.update(
+            q=q, converged=converged, iterations=iterations, position_error=position_error,
+            orientation_error=orientation_error, status=status, solver=solver,
+            message=message, details=details,
+        )  # fmt: skip
+        return new
+
     def with_details(self, **extra: Any) -> IKResult:
         """This result with ``extra`` added to its ``details`` (the other fields shared:
         they are immutable, ``q`` read-only), without re-checking them."""

@@ -1,17 +1,25 @@
 """Many targets of one chain at once: :func:`solve_batch`, on one core or several.
 
 Every target is solved on its own from the same start, exactly as :func:`~.one_call.solve`
-solves it: the answers are the single calls' bit for bit, whatever ``workers`` is. With
-``workers`` above 1 the targets go in contiguous chunks to that many processes, each
-holding its own copy of the robot (the model as it is now, and its current joints); a
-process costs about a second to start (it imports MuJoCo and reads the model), so this
-pays from tens of thousands of targets (``benchmarks/batch.py``).
+solves it: the answers are the single calls' bit for bit, whatever ``workers`` is.
+
+Where every target is ``lm``'s (the solver ``lm``, or ``auto`` choosing ``lm`` for the
+targets' tasks; no elbow pole), the targets go to ``lm``'s compiled loop in one call
+(:meth:`LM.solve_many <humanoid_ik.solvers.jacobian.lm.LM.solve_many>`), on ``workers``
+threads with a kernel each (the loop releases the GIL); a target no start reached is
+solved again by the one call, which measures it (and for ``auto`` retries it).
+
+Otherwise, with ``workers`` above 1 the targets go in contiguous chunks to that many
+processes, each holding its own copy of the robot (the model as it is now, and its
+current joints); a process costs about a second to start (it imports MuJoCo and reads
+the model), so this pays from tens of thousands of targets (``benchmarks/batch.py``).
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+from types import MappingProxyType
 from typing import Any
 
 import mujoco
@@ -20,10 +28,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.robot import Robot
-from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import SolverError, TargetError
-from humanoid_ik.solvers.base import Solver
-from humanoid_ik.solvers.one_call import solve
+from humanoid_ik.solvers.auto import Auto
+from humanoid_ik.solvers.base import Solver, check_start
+from humanoid_ik.solvers.jacobian.lm import LM
+from humanoid_ik.solvers.one_call import solve, solver_for
 
 __all__ = ["solve_batch"]
 
@@ -102,6 +112,69 @@ def _solve_chunk(chunk: Packed) -> tuple[NDArray[np.float64], list[tuple[Any, ..
     return q, rest
 
 
+def _compiled_lm(chain: Chain, solver: Solver, targets: list[Target]) -> LM | None:
+    """The ``lm`` that solves every target when it is ``solver`` itself or ``auto``'s
+    choice for each target's task, without a pole (which ``lm`` honours in Python), on
+    a chain the compiled loop takes; else ``None``."""
+    if any(t.pole is not None for t in targets):
+        return None
+    if type(solver) is LM:
+        return solver
+    if type(solver) is not Auto:
+        return None
+    tasks = {t.is_pose for t in targets}
+    chosen = {solver.choice(chain, pose) for pose in tasks}
+    if len(chosen) != 1:
+        return None
+    (lm,) = chosen
+    return lm if type(lm) is LM else None
+
+
+def _solve_compiled(
+    chain: Chain,
+    solver: Solver,
+    lm: LM,
+    targets: list[Target],
+    start: NDArray[np.float64],
+    threads: int,
+) -> list[IKResult]:
+    """``solve(chain, target, solver, q0=start)`` for each target, the compiled loop
+    solving them all (:meth:`LM.solve_many`, on ``threads`` threads): each converged
+    answer is wrapped as ``lm`` (and ``auto``) wrap it, and a target no start solved is
+    solved again by the one call, which measures it, and for ``auto`` retries it (the
+    same starts give the same pose: only the result is made anew)."""
+    if not targets:
+        return []
+    chain.claim()
+    try:
+        chain.sync()
+        q0 = chain.clip(check_start(chain, start))
+        positions, quats, rotations, _ = _packed(targets)
+        q, info = lm.solve_many(chain, positions, quats, rotations, q0, threads)
+    finally:
+        chain.release()
+    q.setflags(write=False)
+    extra = {"details": MappingProxyType({"auto": ("lm",)})} if type(solver) is Auto else {}
+    done, converged = Status.CONVERGED, (info[:, 0] == 1.0).tolist()
+    iterations = info[:, 1].astype(int).tolist()
+    errors, rot_errors = info[:, 2].tolist(), info[:, 3].tolist()
+    results: list[IKResult] = []
+    for i, target in enumerate(targets):
+        if converged[i]:
+            rot = None if target.quat is None else rot_errors[i]
+            results.append(
+                IKResult.unchecked(
+                    q[i], True, iterations[i], errors[i], rot, done, lm.name, **extra
+                )
+            )
+        else:
+            results.append(solve(chain, target, solver, q0=start))
+    last = results[-1]
+    if last.converged:
+        chain.set_q(last.q)  # the scratch data at the last answer, as after the one calls
+    return results
+
+
 def _packed(targets: list[Target]) -> Packed:
     """Targets as arrays: positions ``(N, 3)``, orientations ``(N, 4)``, their rotations
     ``(N, 3, 3)`` and poles ``(N, 3)``, with NaN rows where a target has none."""
@@ -144,7 +217,8 @@ def solve_batch(
         solver: a solver name (default ``auto``) or a solver object, as for ``solve``.
         quats: orientations ``(N, 4)`` wxyz for positions given as an array.
         q0: the start ``(n,)`` of every solve [rad]; default the chain's current joints.
-        workers: processes to solve on (1: this one; ``0``: one per core).
+        workers: threads (``lm``'s compiled loop) or processes (the other solvers) to
+            solve on (1: this thread; ``0``: one per core).
         **options: solver options, when ``solver`` is a name.
 
     Returns:
@@ -163,6 +237,10 @@ def solve_batch(
     n_workers = min(int(workers) or (os.cpu_count() or 1), len(items))
     qpos = chain.data.qpos.copy()  # the robot's pose the workers copy, before any solve
     first = solve(chain, items[0], solver, q0=start, **options)  # checks solver and start
+    s = solver_for(solver, options) if isinstance(solver, str) else solver
+    compiled = _compiled_lm(chain, s, items)
+    if compiled is not None:
+        return [first, *_solve_compiled(chain, s, compiled, items[1:], start, n_workers)]
     if n_workers <= 1:
         return [first] + [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
     # imported here: a solve without workers (every import humanoid_ik) needs neither

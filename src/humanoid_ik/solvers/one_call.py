@@ -19,7 +19,7 @@ from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.base import Solver
 from humanoid_ik.solvers.registry import SOLVERS, make_solver
 
-__all__ = ["solve"]
+__all__ = ["solve", "solver_for"]
 
 _MADE: dict[tuple[str, tuple[tuple[str, Any], ...]], Solver] = {}
 _MADE_LOCK = threading.Lock()
@@ -27,7 +27,7 @@ _MADE_MAX = 64
 """At most this many solver objects are kept for :func:`solve` (then all are dropped)."""
 
 
-def _solver_for(name: str, options: dict[str, Any]) -> Solver:
+def solver_for(name: str, options: dict[str, Any]) -> Solver:
     """The solver object :func:`solve` uses for ``name`` and ``options``: made once,
     then reused (options that cannot be hashed, such as lists, make a new one)."""
     key = (name, tuple(sorted(options.items())))
@@ -80,7 +80,7 @@ def solve(
             f"solver must be a solver name or a Solver, got {type(solver).__name__}; "
             f"solvers: {', '.join(sorted(SOLVERS))}"
         )
-    s = _solver_for(solver, options) if isinstance(solver, str) else solver
+    s = solver_for(solver, options) if isinstance(solver, str) else solver
     result = s.solve(chain, tgt, q0, data=data)
     if apply and data is not None and result.converged:
         chain.apply(result.q, data)

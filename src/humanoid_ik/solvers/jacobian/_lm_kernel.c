@@ -4,7 +4,9 @@
    `Kernel(model_bytes)` owns a copy of a model, loaded from the bytes of
    `mujoco.mj_saveModel` (there is no public way to get the `mjModel*` behind a
    `mujoco.MjModel`), and an `mjData` of its own. `Kernel.descend(...)` runs one start of
-   lm (solvers/jacobian/lm.py keeps the restarts in Python):
+   lm (solvers/jacobian/lm.py keeps a single solve's restarts in Python);
+   `Kernel.solve(...)` runs lm's whole solve of many targets, restarts included, in the
+   order lm.py takes them (solve_batch's path: the same answers). One start:
 
      copy the robot's qpos in, put the start q on the chain's joints, then per iteration
      the forward kinematics of the bodies on the way from the world to the end effector
@@ -38,6 +40,7 @@
 
 #define HISTORY_MAX 100001 /* max_iterations + 1 at its bound (OPTION_BOUNDS) */
 #define STACK_SLACK 65536  /* bytes kept free for the stack frame records and MuJoCo */
+#define SEEDS_MAX 4000     /* library_seeds at its bound, restarts within theirs (OPTION_BOUNDS) */
 
 typedef struct {
   PyObject_HEAD
@@ -315,6 +318,126 @@ static Outcome descend(const mjModel* m, mjData* d, const Problem* p, mjtNum* q)
   return out;
 }
 
+/* pose i's cost enters the k best found so far: below the last, or equal and earlier */
+static int enters(mjtNum c, Py_ssize_t i, const mjtNum* best, const int64_t* out,
+                  Py_ssize_t at) {
+  return c < best[at] || (c == best[at] && i < out[at]);
+}
+
+/* The k poses nearest a target by the seed library's cost (seed_nearest's doc), their
+   indices into out (k,), their costs into best (k,); returns how many (min(k, size)). */
+static Py_ssize_t rank_nearest(const mjtNum* pos, const mjtNum* rot, const mjtNum* tp,
+                               const mjtNum* tr, mjtNum length, Py_ssize_t size, Py_ssize_t k,
+                               mjtNum* best, int64_t* out) {
+  Py_ssize_t have = 0;
+  if (k > size) k = size;
+  /* the first pose at or right of the target's x; then outward, nearest x first */
+  Py_ssize_t left = 0, right = size;
+  while (left < right) {
+    Py_ssize_t mid = left + (right - left) / 2;
+    if (pos[3 * mid] < tp[0]) left = mid + 1; else right = mid;
+  }
+  right = left, left = left - 1;
+  while (k && (left >= 0 || right < size)) {
+    mjtNum gap_l = left >= 0 ? tp[0] - pos[3 * left] : INFINITY;
+    mjtNum gap_r = right < size ? pos[3 * right] - tp[0] : INFINITY;
+    int go_left = gap_l <= gap_r;
+    mjtNum gap = go_left ? gap_l : gap_r;
+    /* the margin keeps rounding from stopping before a pose that would enter */
+    if (have == k && gap > best[k - 1] * (1.0 + 1e-9)) break;
+    Py_ssize_t i = go_left ? left-- : right++;
+    const mjtNum* x = pos + 3 * i;
+    mjtNum dx = x[0] - tp[0], dy = x[1] - tp[1], dz = x[2] - tp[2];
+    mjtNum sq = dx * dx + dy * dy + dz * dz;
+    if (have == k && sq > best[k - 1] * best[k - 1] * (1.0 + 1e-9)) continue;
+    mjtNum c = sqrt(sq);
+    if (rot) {
+      const mjtNum* r = rot + 9 * i;
+      mjtNum dot = 0.0;
+      for (int j = 0; j < 9; j++) dot += r[j] * tr[j];
+      c += length * (1.0 - (dot - 1.0) * 0.5);
+    }
+    if (have == k && !enters(c, i, best, out, k - 1)) continue;
+    Py_ssize_t at = have < k ? have++ : k - 1;
+    while (at > 0 && enters(c, i, best, out, at - 1)) {
+      best[at] = best[at - 1], out[at] = out[at - 1];
+      at--;
+    }
+    best[at] = c, out[at] = i;
+  }
+  return have;
+}
+
+/* ------------------------------------------------------------------ restarts */
+
+/* The starts after a first start that did not converge, in the order of
+   solvers/jacobian/seeds.py restart_poses: the library's poses nearest the target
+   (ranked once, when the first is needed) at the even restarts while they last, random
+   poses otherwise; the best pose over all by solvers/iterate.py pose_cost (the first on
+   a tie), from the caller's best. */
+typedef struct {
+  const mjtNum *positions, *rotations, *poses, *target_rot, *randoms;
+  mjtNum length, best_cost;
+  Py_ssize_t size, seeds;
+  int restarts;
+} Restarts;
+
+static mjtNum pose_cost(mjtNum ep, mjtNum er) { return er != 0.0 ? ep + 0.1 * er : ep; }
+
+static Outcome restart(const mjModel* m, mjData* d, const Problem* p, const Restarts* r,
+                       mjtNum* q) {
+  const int n = p->n;
+  Outcome out = {0, 0, r->best_cost, NAN, NAN};
+  mj_markStack(d);
+  mjtNum* x = mj_stackAllocNum(d, n);
+  mjtNum* near_cost = mj_stackAllocNum(d, r->seeds ? r->seeds : 1);
+  int64_t* near = (int64_t*)mj_stackAllocNum(d, r->seeds ? r->seeds : 1);
+  Py_ssize_t found = -1, used = 0, drawn = 0;
+  for (int k = 0; k < r->restarts; k++) {
+    const mjtNum* start = NULL;
+    if (k % 2 == 0 && r->positions && used < r->seeds) {
+      if (found < 0) {
+        found = rank_nearest(r->positions, p->target_quat ? r->rotations : NULL, p->target_pos,
+                             p->target_quat ? r->target_rot : NULL, r->length, r->size, r->seeds,
+                             near_cost, near);
+      }
+      if (used < found) start = r->poses + (size_t)n * near[used++];
+    }
+    if (!start) start = r->randoms + (size_t)n * drawn++;
+    memcpy(x, start, sizeof(mjtNum) * n);
+    Outcome one = descend(m, d, p, x);
+    out.iterations += one.iterations;
+    if (one.converged) {
+      memcpy(q, x, sizeof(mjtNum) * n);
+      out.converged = 1, out.cost = one.cost, out.ep = one.ep, out.er = one.er;
+      break;
+    }
+    mjtNum c = pose_cost(one.ep, one.er);
+    if (c < out.cost) {
+      memcpy(q, x, sizeof(mjtNum) * n);
+      out.cost = c, out.ep = one.ep, out.er = one.er;
+    }
+  }
+  mj_freeStack(d);
+  return out;
+}
+
+/* lm's whole solve of one target from q0 into q: the first start, then the restarts */
+static Outcome solve_one(const mjModel* m, mjData* d, const Problem* p, Restarts* r,
+                         const mjtNum* q0, mjtNum* q) {
+  memcpy(q, q0, sizeof(mjtNum) * p->n);
+  Outcome out = descend(m, d, p, q);
+  if (out.converged || !r->restarts) return out;
+  r->best_cost = pose_cost(out.ep, out.er); /* er is 0 for a position target */
+  if (!(r->best_cost < INFINITY)) { /* a start that overflowed: the best pose is q0 */
+    memcpy(q, q0, sizeof(mjtNum) * p->n);
+    r->best_cost = INFINITY;
+  }
+  Outcome more = restart(m, d, p, r, q);
+  more.iterations += out.iterations;
+  return more;
+}
+
 /* ------------------------------------------------------------------ the type */
 
 static void Kernel_dealloc(Kernel* self) {
@@ -339,11 +462,12 @@ static int Kernel_init(Kernel* self, PyObject* args, PyObject* kwds) {
                     "Kernel: the bytes are not a model saved by mujoco.mj_saveModel");
     return -1;
   }
-  /* room on the stack for the largest call: (6 + 6) nv + 2 nv^2 + 11 nv + HISTORY_MAX
-     numbers and nbody ints */
+  /* room on the stack for the largest call: (6 + 6) nv + 2 nv^2 + 12 nv + HISTORY_MAX
+     + 2 SEEDS_MAX + 2 numbers (a solve's restarts) and nbody ints */
   mjtSize nv = m->nv;
-  m->narena += (mjtSize)sizeof(mjtNum) * (23 * nv + 2 * nv * nv + HISTORY_MAX) +
-               (mjtSize)sizeof(int) * m->nbody + 64 + STACK_SLACK;
+  m->narena +=
+      (mjtSize)sizeof(mjtNum) * (24 * nv + 2 * nv * nv + HISTORY_MAX + 2 * SEEDS_MAX + 2) +
+      (mjtSize)sizeof(int) * m->nbody + 64 + STACK_SLACK;
   mjData* d = mj_makeData(m);
   if (!d) {
     mj_deleteModel(m);
@@ -380,88 +504,112 @@ PyDoc_STRVAR(descend_doc,
 "best pose. cost is e' W e of that pose, and the errors are that pose's (the\n"
 "orientation error 0 for a position target).");
 
-static PyObject* Kernel_descend(Kernel* self, PyObject* const* args, Py_ssize_t nargs) {
-  if (nargs != 11) {
-    PyErr_Format(PyExc_TypeError, "descend() takes 11 arguments, got %zd", nargs);
-    return NULL;
-  }
+/* The arguments descend and solve share (descend's doc; for solve, `count` non-NULL:
+   positions (3 N,) and quats (4 N,) in place of one target, N into *count) into *out,
+   the buffers' views in views (8 slots, *held_out of them held: the caller releases
+   them, also on failure), the robot's qpos in *qpos, q in *q; `extra` bytes of MuJoCo
+   stack asked for beside one start's. Returns -1 with a Python error set. */
+static int parse_problem(Kernel* self, PyObject* const* args, Problem* out, Py_buffer* views,
+                         int* held_out, const mjtNum** qpos, mjtNum** q, size_t extra,
+                         Py_ssize_t* count) {
+  *held_out = 0;
   if (!self->m) {
     PyErr_SetString(PyExc_RuntimeError, "Kernel is not initialised");
-    return NULL;
+    return -1;
   }
   if (self->busy) {
     PyErr_SetString(PyExc_RuntimeError,
                     "this lm kernel is in use by another thread; a kernel serves one "
                     "thread at a time (give each thread its own robot state)");
-    return NULL;
+    return -1;
   }
   const mjModel* m = self->m;
-  mjData* d = self->d;
+  const mjData* d = self->d;
   Problem p;
   memset(&p, 0, sizeof(p));
-  Py_buffer views[8];
   int held = 0;
-  PyObject* result = NULL;
   Py_ssize_t n = 0;
 
   p.site = PyObject_IsTrue(args[3]);
-  if (p.site < 0) goto done;
-  if (get_array(args[10], &views[held], 'd', -1, 1, "q", &n) < 0) goto done;
-  held++;
+  if (p.site < 0) return -1;
+  if (get_array(args[10], &views[held], 'd', -1, 1, "q", &n) < 0) return -1;
+  *q = views[held].buf;
+  *held_out = ++held;
   if (n < 1 || n > m->nv) {
     PyErr_Format(PyExc_ValueError, "q must have 1 to nv = %lld values, got %zd",
                  (long long)m->nv, n);
-    goto done;
+    return -1;
   }
-  mjtNum* q = views[0].buf;
-  if (get_array(args[0], &views[held], 'd', (Py_ssize_t)m->nq, 0, "qpos", NULL) < 0) goto done;
-  const mjtNum* qpos = views[held++].buf;
-  if (get_array(args[1], &views[held], 'i', n, 0, "qpos_adr", NULL) < 0) goto done;
-  p.qadr = views[held++].buf;
-  if (get_array(args[2], &views[held], 'i', n, 0, "dof_adr", NULL) < 0) goto done;
-  p.dof = views[held++].buf;
-  if (get_array(args[5], &views[held], 'd', n, 0, "lower", NULL) < 0) goto done;
-  p.lower = views[held++].buf;
-  if (get_array(args[6], &views[held], 'd', n, 0, "upper", NULL) < 0) goto done;
-  p.upper = views[held++].buf;
-  if (get_array(args[7], &views[held], 'd', 3, 0, "target_pos", NULL) < 0) goto done;
-  p.target_pos = views[held++].buf;
-  if (args[8] != Py_None) {
-    if (get_array(args[8], &views[held], 'd', 4, 0, "target_quat", NULL) < 0) goto done;
-    p.target_quat = views[held++].buf;
+  if (get_array(args[0], &views[held], 'd', (Py_ssize_t)m->nq, 0, "qpos", NULL) < 0) return -1;
+  *qpos = views[held].buf;
+  *held_out = ++held;
+  if (get_array(args[1], &views[held], 'i', n, 0, "qpos_adr", NULL) < 0) return -1;
+  p.qadr = views[held].buf;
+  *held_out = ++held;
+  if (get_array(args[2], &views[held], 'i', n, 0, "dof_adr", NULL) < 0) return -1;
+  p.dof = views[held].buf;
+  *held_out = ++held;
+  if (get_array(args[5], &views[held], 'd', n, 0, "lower", NULL) < 0) return -1;
+  p.lower = views[held].buf;
+  *held_out = ++held;
+  if (get_array(args[6], &views[held], 'd', n, 0, "upper", NULL) < 0) return -1;
+  p.upper = views[held].buf;
+  *held_out = ++held;
+  if (!count) { /* one target: its position (3,) and its orientation (4,) or None */
+    if (get_array(args[7], &views[held], 'd', 3, 0, "target_pos", NULL) < 0) return -1;
+    p.target_pos = views[held].buf;
+    *held_out = ++held;
+    if (args[8] != Py_None) {
+      if (get_array(args[8], &views[held], 'd', 4, 0, "target_quat", NULL) < 0) return -1;
+      p.target_quat = views[held].buf;
+      *held_out = ++held;
+    }
+  } else { /* targets: positions (3 N,) and orientations (4 N,), NaN rows for none */
+    Py_ssize_t len = 0;
+    if (get_array(args[7], &views[held], 'd', -1, 0, "positions", &len) < 0) return -1;
+    p.target_pos = views[held].buf;
+    *held_out = ++held;
+    if (len % 3) {
+      PyErr_Format(PyExc_ValueError, "positions must have 3 values per target, got %zd", len);
+      return -1;
+    }
+    *count = len / 3;
+    if (get_array(args[8], &views[held], 'd', 4 * *count, 0, "quats", NULL) < 0) return -1;
+    p.target_quat = views[held].buf;
+    *held_out = ++held;
   }
   for (Py_ssize_t i = 0; i < n; i++) {
     if (p.qadr[i] < 0 || p.qadr[i] >= m->nq || p.dof[i] < 0 || p.dof[i] >= m->nv) {
       PyErr_Format(PyExc_ValueError, "joint %zd: qpos address %lld or dof address %lld "
                    "is outside the model", i, (long long)p.qadr[i], (long long)p.dof[i]);
-      goto done;
+      return -1;
     }
     int type = m->jnt_type[m->dof_jntid[p.dof[i]]];
     if (type != mjJNT_HINGE && type != mjJNT_SLIDE) { /* chain_jacobian's joints */
       PyErr_Format(PyExc_ValueError, "joint %zd: dof address %lld is not a hinge's or a slide's",
                    i, (long long)p.dof[i]);
-      goto done;
+      return -1;
     }
   }
-  long count = p.site ? (long)m->nsite : (long)m->nbody;
-  if (as_int(args[4], "ee_id", p.site ? 0 : 1, count - 1, &p.ee_id) < 0) goto done;
+  long ids = p.site ? (long)m->nsite : (long)m->nbody;
+  if (as_int(args[4], "ee_id", p.site ? 0 : 1, ids - 1, &p.ee_id) < 0) return -1;
   p.body = p.site ? m->site_bodyid[p.ee_id] : p.ee_id;
 
   PyObject* opts = args[9];
   if (!PyTuple_Check(opts) || PyTuple_GET_SIZE(opts) != 7) {
     PyErr_SetString(PyExc_TypeError, "options must be a tuple of 7 values");
-    goto done;
+    return -1;
   }
   mjtNum f[5];
   for (int k = 0; k < 5; k++) {
     f[k] = PyFloat_AsDouble(PyTuple_GET_ITEM(opts, k));
-    if (f[k] == -1.0 && PyErr_Occurred()) goto done;
+    if (f[k] == -1.0 && PyErr_Occurred()) return -1;
   }
   p.tol = f[0], p.rot_tol = f[1], p.wr = f[2], p.damp_e = 0.5 * f[3], p.damp_0 = f[4];
   if (as_int(PyTuple_GET_ITEM(opts, 5), "max_iterations", 0, HISTORY_MAX - 1,
              &p.max_iterations) < 0 ||
       as_int(PyTuple_GET_ITEM(opts, 6), "stall_window", 1, INT32_MAX, &p.window) < 0) {
-    goto done;
+    return -1;
   }
   /* the stall test reads slot it % window only once it >= window, so a window longer
      than the iterations needs max_iterations + 1 slots */
@@ -471,14 +619,32 @@ static PyObject* Kernel_descend(Kernel* self, PyObject* const* args, Py_ssize_t 
   p.rows = p.target_quat ? 6 : 3;
 
   size_t need = sizeof(mjtNum) * ((size_t)12 * p.nv + 2 * (size_t)p.n * p.n + 11 * (size_t)p.n +
-                                  (size_t)p.history) + sizeof(int) * (size_t)m->nbody + 64;
+                                  (size_t)p.history) + sizeof(int) * (size_t)m->nbody + 64 + extra;
   size_t free_bytes = (size_t)d->narena - d->parena - d->pstack;
   if (need + STACK_SLACK > free_bytes) {
     PyErr_Format(PyExc_MemoryError, "lm kernel: %zu bytes of MuJoCo stack needed, %zu free",
                  need + STACK_SLACK, free_bytes);
-    goto done;
+    return -1;
   }
 
+  *out = p;
+  return 0;
+}
+
+static PyObject* Kernel_descend(Kernel* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 11) {
+    PyErr_Format(PyExc_TypeError, "descend() takes 11 arguments, got %zd", nargs);
+    return NULL;
+  }
+  Problem p;
+  Py_buffer views[8];
+  int held = 0;
+  const mjtNum* qpos;
+  mjtNum* q;
+  PyObject* result = NULL;
+  if (parse_problem(self, args, &p, views, &held, &qpos, &q, 0, NULL) < 0) goto done;
+  const mjModel* m = self->m;
+  mjData* d = self->d;
   Outcome out;
   self->busy = 1;
   Py_BEGIN_ALLOW_THREADS
@@ -488,6 +654,122 @@ static PyObject* Kernel_descend(Kernel* self, PyObject* const* args, Py_ssize_t 
   self->busy = 0;
   result = Py_BuildValue("(Oiddd)", out.converged ? Py_True : Py_False, out.iterations,
                          (double)out.cost, (double)out.ep, (double)out.er);
+
+done:
+  for (int k = 0; k < held; k++) PyBuffer_Release(&views[k]);
+  return result;
+}
+
+PyDoc_STRVAR(solve_doc,
+"solve(qpos, qpos_adr, dof_adr, site, ee_id, lower, upper, positions, quats, options,\n"
+"      q0, rotations, library, library_seeds, randoms, restarts, out_q, out_info) -> None\n"
+"\n"
+"lm's whole solve of each of N targets from q0, as LM._solve does it one target at a\n"
+"time (the same answers bit for bit): descend from q0, then, when that start did not\n"
+"converge, the restarts in the order of seeds.restart_poses (the library's\n"
+"library_seeds poses nearest the target, ranked as seed_nearest ranks them, at the\n"
+"even restarts while they last, else the rows of randoms (restarts n,) in turn), the\n"
+"best pose over the starts by iterate.pose_cost. The first 11 arguments as for\n"
+"descend, with positions (3 N,) and quats (4 N,) (a NaN row: a position target) for\n"
+"the target and q0 (n,) for q (not changed); rotations (9 N,): each pose target's\n"
+"rotation matrix (for the ranking); library: None or (positions (3 L,) in x order,\n"
+"rotations (9 L,), poses (L n,), length). Writes each answer into out_q (N n,) and\n"
+"(converged, iterations, position error, orientation error) into out_info (4 N,); a\n"
+"target no start solved gets its best pose and that pose's errors as the kernel\n"
+"measured them. The loop runs without the GIL.");
+
+static PyObject* Kernel_solve(Kernel* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 18) {
+    PyErr_Format(PyExc_TypeError, "solve() takes 18 arguments, got %zd", nargs);
+    return NULL;
+  }
+  Problem p;
+  Restarts r;
+  memset(&r, 0, sizeof(r));
+  Py_buffer views[16];
+  int held = 0;
+  const mjtNum* qpos;
+  mjtNum* q0;
+  PyObject* result = NULL;
+  Py_ssize_t count = 0;
+  long seeds = PyLong_AsLong(args[13]), restarts = PyLong_AsLong(args[15]);
+  if ((seeds == -1 || restarts == -1) && PyErr_Occurred()) return NULL;
+  if (seeds < 0 || seeds > SEEDS_MAX || restarts < 0 || restarts > SEEDS_MAX) {
+    PyErr_Format(PyExc_ValueError, "library_seeds and restarts must be in [0, %d], got %ld "
+                 "and %ld", SEEDS_MAX, seeds, restarts);
+    return NULL;
+  }
+  size_t nv = self->m ? (size_t)self->m->nv : 0;
+  size_t extra = sizeof(mjtNum) * (nv + 2 * (size_t)(seeds ? seeds : 1) + 2) + 64;
+  if (parse_problem(self, args, &p, views, &held, &qpos, &q0, extra, &count) < 0) goto done;
+  const mjtNum *positions = p.target_pos, *quats = p.target_quat;
+  r.restarts = (int)restarts;
+  if (get_array(args[11], &views[held], 'd', 9 * count, 0, "rotations", NULL) < 0) goto done;
+  const mjtNum* rotations = views[held++].buf;
+  if (get_array(args[14], &views[held], 'd', (Py_ssize_t)restarts * p.n, 0, "randoms", NULL) <
+      0) {
+    goto done;
+  }
+  r.randoms = views[held++].buf;
+  if (get_array(args[16], &views[held], 'd', count * p.n, 1, "out_q", NULL) < 0) goto done;
+  mjtNum* out_q = views[held++].buf;
+  if (get_array(args[17], &views[held], 'd', 4 * count, 1, "out_info", NULL) < 0) goto done;
+  mjtNum* info = views[held++].buf;
+  PyObject* lib = args[12];
+  if (lib != Py_None && seeds > 0) {
+    Py_ssize_t len = 0;
+    if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 4) {
+      PyErr_SetString(PyExc_TypeError,
+                      "library must be None or (positions, rotations, poses, length)");
+      goto done;
+    }
+    if (get_array(PyTuple_GET_ITEM(lib, 0), &views[held], 'd', -1, 0, "library positions",
+                  &len) < 0) {
+      goto done;
+    }
+    r.positions = views[held++].buf;
+    if (len % 3) {
+      PyErr_Format(PyExc_ValueError, "library positions must have 3 values per pose, got %zd",
+                   len);
+      goto done;
+    }
+    r.size = len / 3;
+    if (get_array(PyTuple_GET_ITEM(lib, 1), &views[held], 'd', 9 * r.size, 0,
+                  "library rotations", NULL) < 0) {
+      goto done;
+    }
+    r.rotations = views[held++].buf;
+    if (get_array(PyTuple_GET_ITEM(lib, 2), &views[held], 'd', r.size * p.n, 0,
+                  "library poses", NULL) < 0) {
+      goto done;
+    }
+    r.poses = views[held++].buf;
+    r.length = PyFloat_AsDouble(PyTuple_GET_ITEM(lib, 3));
+    if (r.length == -1.0 && PyErr_Occurred()) goto done;
+    if (!(r.length >= 0.0)) {
+      PyErr_Format(PyExc_ValueError, "length must be >= 0, got %g", (double)r.length);
+      goto done;
+    }
+    r.seeds = seeds < r.size ? seeds : r.size;
+  }
+  const mjModel* m = self->m;
+  mjData* d = self->d;
+  const int n = p.n;
+  self->busy = 1;
+  Py_BEGIN_ALLOW_THREADS
+  memcpy(d->qpos, qpos, sizeof(mjtNum) * (size_t)m->nq);
+  for (Py_ssize_t i = 0; i < count; i++) {
+    p.target_pos = positions + 3 * i;
+    p.target_quat = isnan(quats[4 * i]) ? NULL : quats + 4 * i;
+    p.rows = p.target_quat ? 6 : 3;
+    r.target_rot = rotations + 9 * i;
+    Outcome out = solve_one(m, d, &p, &r, q0, out_q + (size_t)n * i);
+    mjtNum* row = info + 4 * i;
+    row[0] = out.converged, row[1] = out.iterations, row[2] = out.ep, row[3] = out.er;
+  }
+  Py_END_ALLOW_THREADS
+  self->busy = 0;
+  result = Py_NewRef(Py_None);
 
 done:
   for (int k = 0; k < held; k++) PyBuffer_Release(&views[k]);
@@ -518,12 +800,6 @@ PyDoc_STRVAR(seed_nearest_doc,
 "until the x gap alone exceeds the k-th cost found (cost >= distance >= x gap); a pose\n"
 "farther than that cost is not measured further. The same ranking as a full sort, in\n"
 "a fixed order: the same on every machine.");
-
-/* pose i's cost enters the k best found so far: below the last, or equal and earlier */
-static int enters(mjtNum c, Py_ssize_t i, const mjtNum* best, const int64_t* out,
-                  Py_ssize_t at) {
-  return c < best[at] || (c == best[at] && i < out[at]);
-}
 
 static PyObject* seed_nearest(PyObject* module, PyObject* const* args, Py_ssize_t nargs) {
   if (nargs != 6) {
@@ -566,40 +842,7 @@ static PyObject* seed_nearest(PyObject* module, PyObject* const* args, Py_ssize_
   }
   Py_ssize_t have = 0;
   Py_BEGIN_ALLOW_THREADS
-  /* the first pose at or right of the target's x; then outward, nearest x first */
-  Py_ssize_t left = 0, right = size;
-  while (left < right) {
-    Py_ssize_t mid = left + (right - left) / 2;
-    if (pos[3 * mid] < tp[0]) left = mid + 1; else right = mid;
-  }
-  right = left, left = left - 1;
-  while (k && (left >= 0 || right < size)) {
-    mjtNum gap_l = left >= 0 ? tp[0] - pos[3 * left] : INFINITY;
-    mjtNum gap_r = right < size ? pos[3 * right] - tp[0] : INFINITY;
-    int go_left = gap_l <= gap_r;
-    mjtNum gap = go_left ? gap_l : gap_r;
-    /* the margin keeps rounding from stopping before a pose that would enter */
-    if (have == k && gap > best[k - 1] * (1.0 + 1e-9)) break;
-    Py_ssize_t i = go_left ? left-- : right++;
-    const mjtNum* x = pos + 3 * i;
-    mjtNum dx = x[0] - tp[0], dy = x[1] - tp[1], dz = x[2] - tp[2];
-    mjtNum sq = dx * dx + dy * dy + dz * dz;
-    if (have == k && sq > best[k - 1] * best[k - 1] * (1.0 + 1e-9)) continue;
-    mjtNum c = sqrt(sq);
-    if (rot) {
-      const mjtNum* r = rot + 9 * i;
-      mjtNum dot = 0.0;
-      for (int j = 0; j < 9; j++) dot += r[j] * tr[j];
-      c += length * (1.0 - (dot - 1.0) * 0.5);
-    }
-    if (have == k && !enters(c, i, best, out, k - 1)) continue;
-    Py_ssize_t at = have < k ? have++ : k - 1;
-    while (at > 0 && enters(c, i, best, out, at - 1)) {
-      best[at] = best[at - 1], out[at] = out[at - 1];
-      at--;
-    }
-    best[at] = c, out[at] = i;
-  }
+  have = rank_nearest(pos, rot, tp, tr, length, size, k, best, out);
   Py_END_ALLOW_THREADS
   PyMem_Free(best);
   result = PyLong_FromSsize_t(have);
@@ -616,6 +859,7 @@ static PyMethodDef module_methods[] = {
 
 static PyMethodDef Kernel_methods[] = {
     {"descend", (PyCFunction)(void (*)(void))Kernel_descend, METH_FASTCALL, descend_doc},
+    {"solve", (PyCFunction)(void (*)(void))Kernel_solve, METH_FASTCALL, solve_doc},
     {NULL, NULL, 0, NULL},
 };
 

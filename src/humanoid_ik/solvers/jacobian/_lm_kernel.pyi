@@ -29,6 +29,29 @@ class Kernel:
         q: NDArray[np.float64],
         /,
     ) -> tuple[bool, int, float, float, float]: ...
+    def solve(
+        self,
+        qpos: NDArray[np.float64],
+        qpos_adr: NDArray[np.int64],
+        dof_adr: NDArray[np.int64],
+        site: bool,
+        ee_id: int,
+        lower: NDArray[np.float64],
+        upper: NDArray[np.float64],
+        positions: NDArray[np.float64],
+        quats: NDArray[np.float64],
+        options: tuple[float, float, float, float, float, int, int],
+        q0: NDArray[np.float64],
+        rotations: NDArray[np.float64],
+        library: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float] | None,
+        library_seeds: int,
+        randoms: NDArray[np.float64],
+        restarts: int,
+        out_q: NDArray[np.float64],
+        out_info: NDArray[np.float64],
+        /,
+    ) -> None:
+        """lm's whole solve of many targets (``LM.solve_many``)."""
 
 def seed_nearest(
     positions: NDArray[np.float64],

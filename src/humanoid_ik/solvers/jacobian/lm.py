@@ -88,7 +88,7 @@ from humanoid_ik.solvers.base import Solver, error_buffers
 from humanoid_ik.solvers.iterate import Best, pose_cost
 from humanoid_ik.solvers.jacobian import _lm_kernel
 from humanoid_ik.solvers.jacobian.loop import OPTION_BOUNDS
-from humanoid_ik.solvers.jacobian.seeds import restart_poses, seed_library
+from humanoid_ik.solvers.jacobian.seeds import random_starts, restart_poses, seed_library
 from humanoid_ik.solvers.options import SolverOptions
 
 __all__ = ["KERNEL_KEY", "LM", "LMOptions", "kernel", "pole_steps"]
@@ -141,10 +141,13 @@ def _build_kernel(model: mujoco.MjModel) -> _lm_kernel.Kernel:
     return _lm_kernel.Kernel(buf)
 
 
-def kernel(chain: Chain) -> _lm_kernel.Kernel:
+def kernel(chain: Chain, index: int = 0) -> _lm_kernel.Kernel:
     """The compiled loop of ``chain``'s robot state: built from a copy of the model on
-    first use, kept in the robot's workspace (dropped when the model changes)."""
-    return chain.robot.workspace(KERNEL_KEY, lambda: _build_kernel(chain.model))
+    first use, kept in the robot's workspace (dropped when the model changes). ``index``
+    1, 2, ...: another kernel of the same robot state, for another thread of a batch
+    (:func:`~humanoid_ik.solvers.batch.solve_batch`; a kernel serves one thread)."""
+    key = KERNEL_KEY if index == 0 else (*KERNEL_KEY, index)
+    return chain.robot.workspace(key, lambda: _build_kernel(chain.model))
 
 
 class LM(Solver):
@@ -170,13 +173,86 @@ class LM(Solver):
         o = self.options
         return restart_poses(chain, q0, target, o.restarts, o.library_seeds, o.seed)
 
-    def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+    def kernel_options(self) -> tuple[float, float, float, float, float, int, int]:
+        """The options as the kernel takes them (``_lm_kernel.Kernel.descend``)."""
         o = self.options
-        descend = kernel(chain).descend
-        options = (
+        return (
             o.tol, o.rot_tol, o.orientation_weight**2, o.error_damping, o.min_damping,
             o.max_iterations, o.stall_window,
         )  # fmt: skip
+
+    def solve_many(
+        self,
+        chain: Chain,
+        positions: NDArray[np.float64],
+        quats: NDArray[np.float64],
+        rotations: NDArray[np.float64],
+        q0: NDArray[np.float64],
+        threads: int = 1,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Many targets from the start ``q0`` (inside the ranges) in one call of the
+        compiled loop per thread (``_lm_kernel.Kernel.solve``): each answer is the one
+        :meth:`solve` gives that target from ``q0``, bit for bit, with the GIL released.
+
+        Args:
+            positions, quats, rotations: the targets ``(N, 3)``, ``(N, 4)`` and their
+                rotation matrices ``(N, 3, 3)``, NaN rows for a position target.
+            threads: kernels of the robot state (:func:`kernel`) working at once, each on
+                a contiguous part of the targets.
+
+        Returns:
+            The answers ``(N, n)`` and per target ``(converged, iterations, position
+            error, orientation error)``. A target that did not converge has its best
+            pose; its result is the one :meth:`solve` makes (it measures the pose again).
+
+        The caller holds the robot (:meth:`Chain.claim`) and has synced it.
+        """
+        import threading
+
+        o = self.options
+        count = len(positions)
+        kernels = [kernel(chain, k) for k in range(threads)]  # built here, not in threads
+        library = seed_library(chain).packed if o.restarts and o.library_seeds else None
+        randoms = random_starts(chain, o.seed, o.restarts).reshape(-1)
+        q, info = np.empty((count, chain.n)), np.empty((count, 4))
+        fixed = (
+            chain.data.qpos.copy(), chain.qpos_adr, chain.dof_adr, chain.ee_kind == "site",
+            chain.ee_id, chain.lower, chain.upper,
+        )  # fmt: skip
+        flat = [np.ascontiguousarray(a).reshape(count, -1) for a in (positions, quats, rotations)]
+
+        options = self.kernel_options()
+        failed: list[BaseException] = []
+
+        def run(k: int, lo: int, hi: int) -> None:
+            p, qt, rot = (a[lo:hi].reshape(-1) for a in flat)
+            try:
+                kernels[k].solve(
+                    *fixed, p, qt, options, q0.copy(), rot, library, o.library_seeds,
+                    randoms, o.restarts, q[lo:hi].reshape(-1), info[lo:hi].reshape(-1),
+                )  # fmt: skip
+            except BaseException as exc:  # raised in the caller, not lost in a thread
+                failed.append(exc)
+
+        bounds = np.linspace(0, count, threads + 1).astype(int)
+        workers = [
+            threading.Thread(target=run, args=(k, int(bounds[k]), int(bounds[k + 1])))
+            for k in range(1, threads)
+        ]
+        for w in workers:
+            w.start()
+        try:
+            run(0, int(bounds[0]), int(bounds[1]))
+        finally:
+            for w in workers:
+                w.join()
+        if failed:
+            raise failed[0]
+        return q, info
+
+    def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
+        descend = kernel(chain).descend
+        options = self.kernel_options()
         site = chain.ee_kind == "site"
         qpos, qadr, dof, eid = chain.data.qpos, chain.qpos_adr, chain.dof_adr, chain.ee_id
         lower, upper, position, quat = chain.lower, chain.upper, target.position, target.quat

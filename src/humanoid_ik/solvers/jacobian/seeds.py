@@ -17,7 +17,10 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.types import Target
 from humanoid_ik.solvers.jacobian import _lm_kernel
 
-__all__ = ["SeedLibrary", "random_starts", "restart_poses", "seed_library"]
+__all__ = ["ROTATION_LENGTH", "SeedLibrary", "random_starts", "restart_poses", "seed_library"]
+
+ROTATION_LENGTH = 0.3
+"""What one radian of rotation weighs in the library's ranking [m/rad]."""
 
 
 class SeedLibrary:
@@ -45,8 +48,12 @@ class SeedLibrary:
         order = np.argsort(positions[:, 0], kind="stable")
         self.q, self.positions, self.rotations = q[order], positions[order], rotations[order]
         self._flat = self.positions.reshape(-1), self.rotations.reshape(-1)
+        self.packed = (*self._flat, self.q.reshape(-1), ROTATION_LENGTH)
+        """The library as the compiled loop takes it (``_lm_kernel.Kernel.solve``)."""
 
-    def nearest(self, target: Target, count: int, length: float = 0.3) -> NDArray[np.float64]:
+    def nearest(
+        self, target: Target, count: int, length: float = ROTATION_LENGTH
+    ) -> NDArray[np.float64]:
         """The ``count`` poses ``(count, n)`` nearest ``target``, nearest first, by the
         distance [m] plus ``length`` [m/rad] times ``1 - cos`` of the rotation angle for
         a pose target; equal costs in library order. In C (``_lm_kernel.seed_nearest``),
