@@ -128,6 +128,31 @@ def test_view_urdf_model_and_body(tmp_path):
 
 
 @pytest.mark.slow
+def test_a_signal_while_glfw_loads_leaves_no_traceback(tmp_path):
+    """Importing glfw (the viewer's display check) runs a child Python that reads the
+    library's file name from a pipe: SIGTERM to the viewer the moment that child exists
+    (4 times) used to leave it an EOF and a traceback on stderr. Held now: 143, the one
+    line, no traceback."""
+    with virtual_display() as display:
+        env = {**os.environ, "MUJOCO_GL": "egl", "DISPLAY": display}  # glfw not loaded yet
+        for _ in range(4):
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "humanoid_ik", "view", "circle", "--duration", "1"],
+                stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                env=env, cwd=tmp_path,
+            )  # fmt: skip
+            children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
+            deadline = time.monotonic() + 60
+            while proc.poll() is None and time.monotonic() < deadline:
+                if handles(proc, signal.SIGTERM) and children.read_text().split():
+                    proc.send_signal(signal.SIGTERM)  # the child: glfw's version check
+                    break
+            _, err = proc.communicate(timeout=60)
+            assert proc.returncode == 143, err
+            assert "Traceback" not in err.decode() and err.decode().count("\n") == 1, err
+
+
+@pytest.mark.slow
 def test_view_sigterm_writes_the_trajectory(tmp_path):
     """SIGTERM to a running viewer (no --duration): the frames shown so far are written
     as an interrupted trajectory, the hand was on the target, and the exit status is 143."""

@@ -245,7 +245,8 @@ class IKResult:
         details: Mapping[str, Any] = _NO_DETAILS,
     ) -> IKResult:
         """A result from values a solver already made right (``q`` a read-only float64
-        ``(n,)`` array of its own, ``status`` a :class:`Status`, ``details`` read-only),
+        ``(n,)`` array, which may view a larger read-only one; ``status`` a
+        :class:`Status`; ``details`` read-only),
         taken as they are: what :func:`~humanoid_ik.solvers.batch.solve_batch` builds for
         each of many answers of the compiled ``lm`` loop (about 2 us a result saved)."""
         new = object.__new__(cls)

@@ -208,7 +208,10 @@ def check_display() -> None:
     ):
         raise RenderError(NO_DISPLAY.format(why="DISPLAY is not set"))
     try:
-        import glfw
+        # held: importing glfw runs a child Python that reads the library's file name
+        # from a pipe; a signal in the middle left it an EOF and a traceback on stderr
+        with signals_held():
+            import glfw
     except Exception as exc:  # ImportError, or the package's RuntimeError: no library
         raise RenderError(NO_DISPLAY.format(why=" ".join(str(exc).split()))) from None
     reporting, glfw.ERROR_REPORTING = glfw.ERROR_REPORTING, "ignore"

@@ -114,8 +114,8 @@ def _solve_chunk(chunk: Packed) -> tuple[NDArray[np.float64], list[tuple[Any, ..
 
 def _compiled_lm(chain: Chain, solver: Solver, targets: list[Target]) -> LM | None:
     """The ``lm`` that solves every target when it is ``solver`` itself or ``auto``'s
-    choice for each target's task, without a pole (which ``lm`` honours in Python), on
-    a chain the compiled loop takes; else ``None``."""
+    choice for each target's task, and no target has a pole (``lm`` honours one in
+    Python); else ``None``."""
     if any(t.pole is not None for t in targets):
         return None
     if type(solver) is LM:

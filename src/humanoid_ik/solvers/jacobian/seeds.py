@@ -48,8 +48,8 @@ class SeedLibrary:
         order = np.argsort(positions[:, 0], kind="stable")
         self.q, self.positions, self.rotations = q[order], positions[order], rotations[order]
         self._flat = self.positions.reshape(-1), self.rotations.reshape(-1)
+        # the library as the compiled loop takes it (_lm_kernel.Kernel.solve)
         self.packed = (*self._flat, self.q.reshape(-1), ROTATION_LENGTH)
-        """The library as the compiled loop takes it (``_lm_kernel.Kernel.solve``)."""
 
     def nearest(
         self, target: Target, count: int, length: float = ROTATION_LENGTH
