@@ -18,7 +18,7 @@ the model), so this pays from tens of thousands of targets (``benchmarks/batch.p
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
 
@@ -154,7 +154,7 @@ def _solve_compiled(
     finally:
         chain.release()
     q.setflags(write=False)
-    extra = {"details": MappingProxyType({"auto": ("lm",)})} if type(solver) is Auto else {}
+    details: Mapping[str, Any] = MappingProxyType({"auto": ("lm",)} if type(solver) is Auto else {})
     done, converged = Status.CONVERGED, (info[:, 0] == 1.0).tolist()
     iterations = info[:, 1].astype(int).tolist()
     errors, rot_errors = info[:, 2].tolist(), info[:, 3].tolist()
@@ -164,7 +164,7 @@ def _solve_compiled(
             rot = None if target.quat is None else rot_errors[i]
             results.append(
                 IKResult.unchecked(
-                    q[i], True, iterations[i], errors[i], rot, done, lm.name, **extra
+                    q[i], True, iterations[i], errors[i], rot, done, lm.name, details=details
                 )
             )
         else:
