@@ -81,6 +81,48 @@ static int get_array(PyObject* obj, Py_buffer* view, char kind, Py_ssize_t n, in
   return 0;
 }
 
+/* A seed library's arrays (solvers/jacobian/seeds.py SeedLibrary): positions (3 L,) in
+   the order of x, rotations (9 L,), poses (L n,), and what a radian weighs in its
+   ranking, length >= 0. */
+typedef struct {
+  const mjtNum *positions, *rotations, *poses;
+  Py_ssize_t size;
+  mjtNum length;
+} Library;
+
+/* The library's arrays into *lib, their views into views from *held on (the caller
+   releases them, also on failure); rotations and poses are read only where not NULL
+   (n: the poses' joints). Returns -1 with a Python error set. */
+static int get_library(PyObject* positions, PyObject* rotations, PyObject* poses, int n,
+                       PyObject* length, Py_buffer* views, int* held, Library* lib) {
+  Py_ssize_t len = 0;
+  memset(lib, 0, sizeof(*lib));
+  if (get_array(positions, &views[*held], 'd', -1, 0, "positions", &len) < 0) return -1;
+  lib->positions = views[(*held)++].buf;
+  if (len % 3) {
+    PyErr_Format(PyExc_ValueError, "positions must have 3 values per pose, got %zd", len);
+    return -1;
+  }
+  lib->size = len / 3;
+  if (rotations) {
+    if (get_array(rotations, &views[*held], 'd', 9 * lib->size, 0, "rotations", NULL) < 0) {
+      return -1;
+    }
+    lib->rotations = views[(*held)++].buf;
+  }
+  if (poses) {
+    if (get_array(poses, &views[*held], 'd', lib->size * n, 0, "poses", NULL) < 0) return -1;
+    lib->poses = views[(*held)++].buf;
+  }
+  lib->length = PyFloat_AsDouble(length);
+  if (lib->length == -1.0 && PyErr_Occurred()) return -1;
+  if (!(lib->length >= 0.0)) {
+    PyErr_Format(PyExc_ValueError, "length must be >= 0, got %g", (double)lib->length);
+    return -1;
+  }
+  return 0;
+}
+
 /* ------------------------------------------------------------------ the loop */
 
 typedef struct {
@@ -376,9 +418,10 @@ static Py_ssize_t rank_nearest(const mjtNum* pos, const mjtNum* rot, const mjtNu
    poses otherwise; the best pose over all by solvers/iterate.py pose_cost (the first on
    a tie), from the caller's best. */
 typedef struct {
-  const mjtNum *positions, *rotations, *poses, *target_rot, *randoms;
-  mjtNum length, best_cost;
-  Py_ssize_t size, seeds;
+  Library lib; /* lib.positions NULL: no library */
+  const mjtNum *target_rot, *randoms;
+  mjtNum best_cost;
+  Py_ssize_t seeds;
   int restarts;
 } Restarts;
 
@@ -395,13 +438,14 @@ static Outcome restart(const mjModel* m, mjData* d, const Problem* p, const Rest
   Py_ssize_t found = -1, used = 0, drawn = 0;
   for (int k = 0; k < r->restarts; k++) {
     const mjtNum* start = NULL;
-    if (k % 2 == 0 && r->positions && used < r->seeds) {
+    if (k % 2 == 0 && r->lib.positions && used < r->seeds) {
       if (found < 0) {
-        found = rank_nearest(r->positions, p->target_quat ? r->rotations : NULL, p->target_pos,
-                             p->target_quat ? r->target_rot : NULL, r->length, r->size, r->seeds,
-                             near_cost, near);
+        const Library* lib = &r->lib;
+        found = rank_nearest(lib->positions, p->target_quat ? lib->rotations : NULL,
+                             p->target_pos, p->target_quat ? r->target_rot : NULL, lib->length,
+                             lib->size, r->seeds, near_cost, near);
       }
-      if (used < found) start = r->poses + (size_t)n * near[used++];
+      if (used < found) start = r->lib.poses + (size_t)n * near[used++];
     }
     if (!start) start = r->randoms + (size_t)n * drawn++;
     memcpy(x, start, sizeof(mjtNum) * n);
@@ -717,40 +761,17 @@ static PyObject* Kernel_solve(Kernel* self, PyObject* const* args, Py_ssize_t na
   mjtNum* info = views[held++].buf;
   PyObject* lib = args[12];
   if (lib != Py_None && seeds > 0) {
-    Py_ssize_t len = 0;
     if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 4) {
       PyErr_SetString(PyExc_TypeError,
                       "library must be None or (positions, rotations, poses, length)");
       goto done;
     }
-    if (get_array(PyTuple_GET_ITEM(lib, 0), &views[held], 'd', -1, 0, "library positions",
-                  &len) < 0) {
+    if (get_library(PyTuple_GET_ITEM(lib, 0), PyTuple_GET_ITEM(lib, 1),
+                    PyTuple_GET_ITEM(lib, 2), p.n, PyTuple_GET_ITEM(lib, 3), views, &held,
+                    &r.lib) < 0) {
       goto done;
     }
-    r.positions = views[held++].buf;
-    if (len % 3) {
-      PyErr_Format(PyExc_ValueError, "library positions must have 3 values per pose, got %zd",
-                   len);
-      goto done;
-    }
-    r.size = len / 3;
-    if (get_array(PyTuple_GET_ITEM(lib, 1), &views[held], 'd', 9 * r.size, 0,
-                  "library rotations", NULL) < 0) {
-      goto done;
-    }
-    r.rotations = views[held++].buf;
-    if (get_array(PyTuple_GET_ITEM(lib, 2), &views[held], 'd', r.size * p.n, 0,
-                  "library poses", NULL) < 0) {
-      goto done;
-    }
-    r.poses = views[held++].buf;
-    r.length = PyFloat_AsDouble(PyTuple_GET_ITEM(lib, 3));
-    if (r.length == -1.0 && PyErr_Occurred()) goto done;
-    if (!(r.length >= 0.0)) {
-      PyErr_Format(PyExc_ValueError, "length must be >= 0, got %g", (double)r.length);
-      goto done;
-    }
-    r.seeds = seeds < r.size ? seeds : r.size;
+    r.seeds = seeds < r.lib.size ? seeds : r.lib.size;
   }
   const mjModel* m = self->m;
   mjData* d = self->d;
@@ -809,32 +830,22 @@ static PyObject* seed_nearest(PyObject* module, PyObject* const* args, Py_ssize_
   Py_buffer views[5];
   int held = 0;
   PyObject* result = NULL;
-  Py_ssize_t size = 0, k = 0;
-  if (get_array(args[0], &views[held], 'd', -1, 0, "positions", &size) < 0) goto done;
-  const mjtNum* pos = views[held++].buf;
-  if (size % 3) {
-    PyErr_Format(PyExc_ValueError, "positions must have 3 values per pose, got %zd", size);
+  Py_ssize_t k = 0;
+  Library lib;
+  int pose = args[3] != Py_None;
+  if (get_library(args[0], pose ? args[1] : NULL, NULL, 0, args[4], views, &held, &lib) < 0) {
     goto done;
   }
-  size /= 3;
   if (get_array(args[2], &views[held], 'd', 3, 0, "target_pos", NULL) < 0) goto done;
   const mjtNum* tp = views[held++].buf;
-  const mjtNum *rot = NULL, *tr = NULL;
-  if (args[3] != Py_None) {
-    if (get_array(args[1], &views[held], 'd', 9 * size, 0, "rotations", NULL) < 0) goto done;
-    rot = views[held++].buf;
+  const mjtNum* tr = NULL;
+  if (pose) {
     if (get_array(args[3], &views[held], 'd', 9, 0, "target_rot", NULL) < 0) goto done;
     tr = views[held++].buf;
   }
-  mjtNum length = PyFloat_AsDouble(args[4]);
-  if (length == -1.0 && PyErr_Occurred()) goto done;
-  if (!(length >= 0.0)) {
-    PyErr_Format(PyExc_ValueError, "length must be >= 0, got %g", (double)length);
-    goto done;
-  }
   if (get_array(args[5], &views[held], 'i', -1, 1, "out", &k) < 0) goto done;
   int64_t* out = views[held++].buf;
-  if (k > size) k = size;
+  if (k > lib.size) k = lib.size;
   mjtNum* best = PyMem_Malloc(sizeof(mjtNum) * (size_t)(k ? k : 1));
   if (!best) {
     PyErr_NoMemory();
@@ -842,7 +853,7 @@ static PyObject* seed_nearest(PyObject* module, PyObject* const* args, Py_ssize_
   }
   Py_ssize_t have = 0;
   Py_BEGIN_ALLOW_THREADS
-  have = rank_nearest(pos, rot, tp, tr, length, size, k, best, out);
+  have = rank_nearest(lib.positions, lib.rotations, tp, tr, lib.length, lib.size, k, best, out);
   Py_END_ALLOW_THREADS
   PyMem_Free(best);
   result = PyLong_FromSsize_t(have);
