@@ -138,16 +138,21 @@ def test_random_arms_are_found_in_their_family(kind):
 
 
 def test_real_arms_families_and_refusals():
-    """UR5: three parallel axes; Kinova: a spherical wrist with h2 || h3. A 7-hinge arm,
-    a 6-hinge arm of random axes and one whose wrist meets but whose other axes neither
-    meet nor are parallel get a reason, said by applicable() and by solve()."""
+    """UR5: three parallel axes; Kinova: a spherical wrist with h2 || h3; the bundled arm
+    with its last joint searched. A 5-hinge arm, a 6-hinge arm of random axes and one
+    whose wrist meets but whose other axes neither meet nor are parallel get a reason,
+    said by applicable() and by solve()."""
     assert subproblem_cache(real_chain("ur5")).family.name == FAMILIES["parallel"]
     assert subproblem_cache(real_chain("kinova")).family.name == FAMILIES["wrist_23"]
     assert subproblem_cache(real_chain("humanoid6")).family.name == (
         "spherical shoulder (axes 1, 2, 3 meet), h5 and h6 meet"
     )
+    assert subproblem_cache(Chain()).family.name == (
+        "spherical shoulder (axes 1, 2, 3 meet), h5 and h6 meet, joint 7 searched"
+    )
     solver = make_solver("subproblem")
-    assert "needs 6 hinges; the chain has 7" in solver.applicable(Chain(), True)
+    five = Chain(joints=Chain().joint_names[:5])
+    assert "needs 6 or 7 hinges; the chain has 5" in solver.applicable(five, True)
     general = arm_chain("none", 0)
     why = solver.applicable(general, True)
     assert why.startswith("subproblem needs a spherical wrist or shoulder")
@@ -329,3 +334,133 @@ def test_one_solver_object_serves_two_threads():
     for t in threads:
         t.join()
     assert wrong == [0, 0]
+
+
+# ----------------------------------------------------------------------------- 7 hinges
+SEARCHED = {
+    "meet56_last": "spherical shoulder (axes 1, 2, 3 meet), h5 and h6 meet, joint 7 searched",
+    "meet23_first": "spherical wrist (axes 5, 6, 7 meet), h2 and h3 meet, joint 1 searched",
+}
+"""Random 7-hinge arms (Panda-like: the last joint held leaves a spherical shoulder and
+axes 5, 6 that meet; Talos-like: the first held leaves a spherical wrist and axes 2, 3
+that meet) and the family each must be found in."""
+
+
+def random_arm7(kind: str, seed: int, limit: float | None = None) -> Chain:
+    """A 7-hinge MJCF arm of ``kind`` (a key of :data:`SEARCHED`): random axes, links of
+    0.1-0.5 m, a random end site; joints in [-limit, limit] or unlimited."""
+    rng = np.random.default_rng(seed)
+    axes = [_unit(rng) for _ in range(7)]
+    links = [_unit(rng) * rng.uniform(0.1, 0.5) for _ in range(6)]  # body i+2 from body i+1
+    zero = (0, 1, 4) if kind == "meet56_last" else (1, 4, 5)  # the bodies at one point
+    for i in zero:
+        links[i] = np.zeros(3)
+    fmt = lambda v: " ".join(f"{x:.17g}" for x in v)  # noqa: E731
+    body = f'<site name="tip" pos="{fmt(_unit(rng) * rng.uniform(0.05, 0.2))}"/>'
+    for i in range(6, -1, -1):
+        lim = "" if limit is None else f' range="{-limit!r} {limit!r}"'
+        pos = fmt(links[i - 1]) if i else "0 0 0"
+        body = (
+            f'<body name="b{i + 1}" pos="{pos}"><joint name="j{i + 1}" axis="{fmt(axes[i])}"'
+            f'{lim}/><geom type="sphere" size="0.02"/>{body}</body>'
+        )
+    xml = (
+        '<mujoco><compiler angle="radian" autolimits="true"/><worldbody>'
+        f'<body name="base" pos="0.1 -0.2 0.3" quat="0.9 0.1 0.3 -0.2">{body}</body>'
+        "</worldbody></mujoco>"
+    )
+    return Chain.from_xml_string(xml, site="tip", joints=[f"j{i}" for i in range(1, 8)])
+
+
+def searched_real(name: str) -> Chain:
+    """Panda's arm or Talos's left arm, from example-robot-data's URDFs."""
+    from humanoid_ik.core.limbs import limb_chain
+    from humanoid_ik.core.models import load_model
+    from humanoid_ik.core.robot import Robot
+
+    robot, limb = {"panda": ("panda", "arm"), "talos": ("talos", "left_arm")}[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a home pose outside the ranges
+        return limb_chain(Robot(load_model(str(robot_file(robot)))), limb)
+
+
+@pytest.mark.parametrize("kind", sorted(SEARCHED))
+def test_seven_hinges_every_solution_at_the_held_joint_and_none_missed(kind):
+    """Random 7-hinge arms: with the held joint at a value, every solution's FK is the
+    target to 1e-9 and the joint vector the target was made from is among them; every
+    answer of 30 ``lm`` starts (tolerances 1e-10, any value of the held joint) is among
+    the solutions at its own value of that joint."""
+    rng = np.random.default_rng(3)
+    dense = LM(restarts=0, tol=1e-10, rot_tol=1e-10, max_iterations=200)
+    k = 6 if kind.endswith("last") else 0
+    checked = 0
+    for seed in range(3):
+        chain = random_arm7(kind, 20 + seed)
+        family = subproblem_cache(chain).family
+        assert family is not None and family.name == SEARCHED[kind] and family.locked == k
+        for _ in range(3):
+            q = rng.uniform(-math.pi, math.pi, 7)
+            target = pose_at(chain, q)
+            sols = solutions(chain, target, q)
+            assert all(s.shape == (7,) and s[k] == q[k] for s in sols)
+            assert any(same_angles(s, q, 1e-7) for s in sols)
+            check_solutions(chain, target, sols)
+            for _ in range(30):
+                res = dense.solve(chain, target, rng.uniform(-math.pi, math.pi, 7))
+                if res.converged:
+                    checked += 1
+                    at = solutions(chain, target, res.q)
+                    assert any(same_angles(res.q, s, 1e-5) for s in at), res.q
+    assert checked > 50  # the search is a real one (of 270 starts)
+
+
+@pytest.mark.parametrize("kind", sorted(SEARCHED))
+def test_seven_hinges_the_search_finds_an_answer_in_the_ranges(kind):
+    """Limited random 7-hinge arms, targets at in-range joint vectors, solved from zero:
+    at least 99.5 % exact answers inside the ranges, the searched joint in its range; a
+    target beyond reach is unreachable after the whole range was tried."""
+    solver = make_solver("subproblem")
+    solved = total = 0
+    for seed in range(4):
+        chain = random_arm7(kind, 40 + seed, limit=2.0)
+        rng = np.random.default_rng(seed)
+        for _ in range(50):
+            target = pose_at(chain, chain.random_q(rng))
+            res = solver.solve(chain, target, np.zeros(7))
+            total += 1
+            if res.converged:
+                solved += 1
+                assert res.details["inside"] >= 1 and res.details["tried"] >= 1
+                assert np.all(res.q >= chain.lower - 1e-9) and np.all(res.q <= chain.upper + 1e-9)
+                check_solutions(chain, target, [res.q])
+    assert solved >= 0.995 * total
+    far = Target(chain.fk(np.zeros(7))[0] * 0 + 50.0, [1.0, 0.0, 0.0, 0.0])
+    res = solver.solve(chain, far, np.zeros(7))
+    assert res.status is Status.UNREACHABLE and res.details["solutions"] == 0
+    assert res.details["tried"] > 200  # 4 rad at 0.25, then at 0.02
+    np.testing.assert_array_equal(res.q, np.zeros(7))
+
+
+@pytest.mark.parametrize("name", ["panda", "talos"])
+def test_seven_hinge_real_arms_by_search_and_auto_keeps_lm(name):
+    """Panda (its last joint searched) and Talos's left arm (its first): exact answers
+    inside the ranges for nearly every in-range target from home; ``auto`` stays with
+    ``lm`` there (the search measured no faster)."""
+    chain = searched_real(name)
+    family = subproblem_cache(chain).family
+    assert family is not None and family.locked == (6 if name == "panda" else 0)
+    solver = make_solver("subproblem")
+    rng = np.random.default_rng(5)
+    home = chain.q.copy()
+    solved = 0
+    for _ in range(100):
+        target = pose_at(chain, chain.random_q(rng))
+        res = solver.solve(chain, target, home)
+        if res.converged:
+            solved += 1
+            assert np.all(res.q >= chain.lower - 1e-9) and np.all(res.q <= chain.upper + 1e-9)
+            check_solutions(chain, target, [res.q])
+    assert solved >= 98
+    auto = make_solver("auto")
+    assert auto.choice(chain, pose=True).name == "lm"
+    assert "searched" in auto.reason(chain, pose=True)

@@ -12,7 +12,9 @@ The choice depends on the chain and the target only (measured on real arms in
   three parallel axes: Kinova j2s6s200, UR5; ``docs/subproblem.md``): exact, every
   solution, the in-range one nearest the start, on UR5 and Kinova at ``lm``'s median
   CPU or below with a p95 a quarter of ``lm``'s (``benchmarks/peers.py``,
-  ``docs/subproblem.md``); else ``lm``;
+  ``docs/subproblem.md``); else ``lm``, also on a 7-hinge chain ``subproblem`` solves
+  by searching its first or last joint (Panda, Talos's arm: the search measured at
+  ``lm``'s median CPU on Panda and 1.2 times it on Talos, ``docs/subproblem.md``);
 - a position target: ``two_link`` where it places the end frame wherever the chain can:
   shoulder axes that meet (or a planar shoulder), an elbow, and nothing after the elbow
   that moves the end frame (no wrist, as on a 4-joint H1-like arm, or an end frame on
@@ -154,8 +156,12 @@ def _choose(chain: Chain, pose: bool) -> tuple[str, str]:
         if shape is None:
             return "closed_form", "shoulder and wrist axes meet: exact"
         family = subproblem_cache(chain).family
-        if family is not None:
+        if family is not None and family.locked < 0:
             return "subproblem", f"6 hinges, {family.name}: exact"
+        if family is not None:
+            return "lm", (
+                f"7 hinges, subproblem's search ({family.name}) measured no faster than lm"
+            )
         return "lm", "no exact solver applies to pose targets"
     if limb.reason is None and limb.held is None:
         if limb.k + 1 == chain.n:

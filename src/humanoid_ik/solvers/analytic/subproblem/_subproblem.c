@@ -19,7 +19,8 @@
 
 typedef struct {
   PyObject_HEAD
-  ArmGeometry g;
+  LockedArm g; /* g.locked: -1 for a 6-hinge arm (g.arm alone) */
+  Py_ssize_t n; /* the chain's joints: 6, or 7 with one locked */
 } Arm;
 
 static int get_array(PyObject* obj, Py_buffer* view, Py_ssize_t n, int writable, const char* name) {
@@ -40,43 +41,52 @@ static int get_array(PyObject* obj, Py_buffer* view, Py_ssize_t n, int writable,
 }
 
 static int Arm_init(Arm* self, PyObject* args, PyObject* kwds) {
-  int family, pcase, reverse;
-  PyObject *ax, *pt, *R0, *p0, *W, *O;
+  int family, pcase, reverse, locked = -1;
+  PyObject *ax, *pt, *R0, *p0, *W, *O, *lh = Py_None, *lp = Py_None;
   static char* kw[] = {"family", "position_case", "reverse", "axes", "points", "end_rotation",
-                       "end_position", "wrist", "meet", NULL};
-  if (!PyArg_ParseTupleAndKeywords(args, kwds, "iipOOOOOO", kw, &family, &pcase, &reverse, &ax,
-                                   &pt, &R0, &p0, &W, &O))
+                       "end_position", "wrist", "meet", "locked", "locked_axis",
+                       "locked_point", NULL};
+  if (!PyArg_ParseTupleAndKeywords(args, kwds, "iipOOOOOO|iOO", kw, &family, &pcase, &reverse,
+                                   &ax, &pt, &R0, &p0, &W, &O, &locked, &lh, &lp))
     return -1;
   if (family < 0 || family > 1 || pcase < 0 || pcase > 3) {
     PyErr_Format(PyExc_ValueError, "family must be 0 or 1 and position_case 0..3, got %d, %d",
                  family, pcase);
     return -1;
   }
-  PyObject* objs[6] = {ax, pt, R0, p0, W, O};
-  const char* names[6] = {"axes", "points", "end_rotation", "end_position", "wrist", "meet"};
-  Py_ssize_t sizes[6] = {18, 18, 9, 3, 3, 3};
-  ArmGeometry* g = &self->g;
-  double* dest[6] = {&g->h[0][0], &g->p[0][0], g->R0, g->p0, g->W, g->O};
-  for (int i = 0; i < 6; i++) {
+  if (locked != -1 && locked != 0 && locked != 6) {
+    PyErr_Format(PyExc_ValueError, "locked must be -1 (none), 0 or 6, got %d", locked);
+    return -1;
+  }
+  int count = locked < 0 ? 6 : 8;
+  PyObject* objs[8] = {ax, pt, R0, p0, W, O, lh, lp};
+  const char* names[8] = {"axes", "points", "end_rotation", "end_position", "wrist", "meet",
+                          "locked_axis", "locked_point"};
+  Py_ssize_t sizes[8] = {18, 18, 9, 3, 3, 3, 3, 3};
+  ArmGeometry* g = &self->g.arm;
+  double* dest[8] = {&g->h[0][0], &g->p[0][0], g->R0, g->p0, g->W, g->O, self->g.h, self->g.p};
+  for (int i = 0; i < count; i++) {
     Py_buffer v;
     if (get_array(objs[i], &v, sizes[i], 0, names[i]) < 0) return -1;
     memcpy(dest[i], v.buf, sizes[i] * sizeof(double));
     PyBuffer_Release(&v);
   }
   g->family = family, g->pcase = pcase, g->reverse = reverse;
+  self->g.locked = locked;
+  self->n = locked < 0 ? 6 : 7;
   return 0;
 }
 
 /* shared argument reading: pos, quat, base, q0 */
 static int read_common(PyObject* const* args, Py_buffer* v, double* GR, double* Gp, Arm* self) {
   const char* names[4] = {"position", "quaternion", "base", "start"};
-  Py_ssize_t sizes[4] = {3, 4, 12, 6};
+  Py_ssize_t sizes[4] = {3, 4, 12, self->n};
   for (int i = 0; i < 4; i++)
     if (get_array(args[i], &v[i], sizes[i], 0, names[i]) < 0) {
       for (int j = 0; j < i; j++) PyBuffer_Release(&v[j]);
       return -1;
     }
-  sp_target(&self->g, v[0].buf, v[1].buf, v[2].buf, GR, Gp);
+  sp_target(&self->g.arm, v[0].buf, v[1].buf, v[2].buf, GR, Gp);
   return 0;
 }
 
@@ -85,7 +95,8 @@ PyDoc_STRVAR(solutions_doc,
 "\n"
 "Every joint vector that puts the end frame at the target (world position, wxyz\n"
 "quaternion; base: the chain's base position and row-major rotation in the world),\n"
-"each angle in (-pi, pi], ranges not applied. ``start`` settles a straight wrist.");
+"each angle in (-pi, pi], ranges not applied. ``start`` settles a straight wrist and,\n"
+"on a 7-hinge arm, holds the locked joint (its value is kept as given).");
 
 static PyObject* Arm_solutions(Arm* self, PyObject* const* args, Py_ssize_t nargs) {
   if (nargs != 4) {
@@ -93,14 +104,27 @@ static PyObject* Arm_solutions(Arm* self, PyObject* const* args, Py_ssize_t narg
     return NULL;
   }
   Py_buffer v[4];
-  double GR[9], Gp[3], sol[MAXSOL][6];
+  double GR[9], Gp[3], sol[MAXSOL][7];
   if (read_common(args, v, GR, Gp, self) < 0) return NULL;
-  int n = sp_solve_all(&self->g, GR, Gp, v[3].buf, sol);
+  const double* start = v[3].buf;
+  int n;
+  if (self->g.locked < 0) {
+    double s6[MAXSOL][6];
+    n = sp_solve_all(&self->g.arm, GR, Gp, start, s6);
+    for (int i = 0; i < n; i++) memcpy(sol[i], s6[i], sizeof s6[i]);
+  } else {
+    n = sp_locked_solutions(&self->g, GR, Gp, start, start[self->g.locked], sol);
+  }
   for (int i = 0; i < 4; i++) PyBuffer_Release(&v[i]);
   PyObject* out = PyList_New(n);
   if (!out) return NULL;
   for (int i = 0; i < n; i++) {
-    PyObject* t = Py_BuildValue("(dddddd)", sol[i][0], sol[i][1], sol[i][2], sol[i][3], sol[i][4], sol[i][5]);
+    PyObject* t = PyTuple_New(self->n);
+    for (Py_ssize_t k = 0; t && k < self->n; k++) {
+      PyObject* x = PyFloat_FromDouble(sol[i][k]);
+      if (!x) Py_CLEAR(t);
+      else PyTuple_SET_ITEM(t, k, x);
+    }
     if (!t) {
       Py_DECREF(out);
       return NULL;
@@ -111,13 +135,16 @@ static PyObject* Arm_solutions(Arm* self, PyObject* const* args, Py_ssize_t narg
 }
 
 PyDoc_STRVAR(solve_doc,
-"solve(position, quaternion, base, start, lower, upper, tol, out) -> (found, inside)\n"
+"solve(position, quaternion, base, start, lower, upper, tol, out) -> (found, inside, tried)\n"
 "\n"
 "Every solution, each angle shifted by multiples of 2 pi into its range (slack ``tol``\n"
 "[rad]) nearest the start; the in-range one nearest ``start`` (sum of squares) is\n"
 "written into ``out``. ``found``: solutions before the ranges, ``inside``: those in\n"
 "range. With none inside, ``out`` holds the solution whose angles (shifted nearest\n"
-"the ranges) leave them least, clipped into them; with none at all, ``start``.");
+"the ranges) leave them least, clipped into them; with none at all, ``start``.\n"
+"On a 7-hinge arm the locked joint is searched (sp_search in families.c): the first\n"
+"value with a solution in range, from the start's outwards; ``found`` is then the most\n"
+"solutions at one value, ``tried`` how many values were tried (1 on a 6-hinge arm).");
 
 static PyObject* Arm_solve(Arm* self, PyObject* const* args, Py_ssize_t nargs) {
   if (nargs != 8) {
@@ -129,19 +156,23 @@ static PyObject* Arm_solve(Arm* self, PyObject* const* args, Py_ssize_t nargs) {
   double tol = PyFloat_AsDouble(args[6]);
   if (tol == -1.0 && PyErr_Occurred()) return NULL;
   if (read_common(args, v, GR, Gp, self) < 0) return NULL;
-  if (get_array(args[4], &lo, 6, 0, "lower") < 0) goto fail4;
-  if (get_array(args[5], &hi, 6, 0, "upper") < 0) goto fail5;
-  if (get_array(args[7], &out, 6, 1, "out") < 0) goto fail6;
-  int n, inside;
+  if (get_array(args[4], &lo, self->n, 0, "lower") < 0) goto fail4;
+  if (get_array(args[5], &hi, self->n, 0, "upper") < 0) goto fail5;
+  if (get_array(args[7], &out, self->n, 1, "out") < 0) goto fail6;
+  int n, inside, tried = 1;
   Py_BEGIN_ALLOW_THREADS /* the buffers are held; the arm is only read */
-  n = sp_solve_all(&self->g, GR, Gp, v[3].buf, sol);
-  inside = sp_pick(sol, n, v[3].buf, lo.buf, hi.buf, tol, out.buf);
+  if (self->g.locked < 0) {
+    n = sp_solve_all(&self->g.arm, GR, Gp, v[3].buf, sol);
+    inside = sp_pick(sol, n, v[3].buf, lo.buf, hi.buf, tol, out.buf);
+  } else {
+    inside = sp_search(&self->g, GR, Gp, v[3].buf, lo.buf, hi.buf, tol, out.buf, &n, &tried);
+  }
   Py_END_ALLOW_THREADS
   PyBuffer_Release(&out);
   PyBuffer_Release(&hi);
   PyBuffer_Release(&lo);
   for (int i = 0; i < 4; i++) PyBuffer_Release(&v[i]);
-  return Py_BuildValue("(ii)", n, inside);
+  return Py_BuildValue("(iii)", n, inside, tried);
 fail6:
   PyBuffer_Release(&hi);
 fail5:
@@ -162,11 +193,14 @@ static PyMethodDef Arm_methods[] = {
 };
 
 PyDoc_STRVAR(Arm_doc,
-"Arm(family, position_case, reverse, axes, points, end_rotation, end_position, wrist, meet)\n"
+"Arm(family, position_case, reverse, axes, points, end_rotation, end_position, wrist, meet,\n"
+"    locked=-1, locked_axis=None, locked_point=None)\n"
 "\n"
 "A 6-hinge arm in its base frame at zero (float64 arrays: axes and points 18 values,\n"
 "end_rotation 9 row-major, end_position, wrist, meet 3 each), in the family's order\n"
-"(reversed when ``reverse``). Holds numbers only: any thread may call it.");
+"(reversed when ``reverse``). With ``locked`` 0 or 6, a 7-hinge arm: the chain's first\n"
+"or last joint (axis and point: 3 values each) searched over, the six others this\n"
+"6-hinge arm, the end frame the 7-hinge arm's. Holds numbers only: any thread may call it.");
 
 static PyTypeObject ArmType = {
     PyVarObject_HEAD_INIT(NULL, 0)

@@ -7,7 +7,8 @@ MAX_SOLUTIONS: int
 """The most solutions one call returns."""
 
 class Arm:
-    """A 6-hinge arm in its base frame at zero, in the family's order."""
+    """A 6-hinge arm in its base frame at zero, in the family's order; with ``locked``
+    0 or 6, a 7-hinge arm whose first or last joint is searched."""
 
     def __init__(
         self,
@@ -20,6 +21,9 @@ class Arm:
         end_position: NDArray[np.float64],
         wrist: NDArray[np.float64],
         meet: NDArray[np.float64],
+        locked: int = -1,
+        locked_axis: NDArray[np.float64] | None = None,
+        locked_point: NDArray[np.float64] | None = None,
     ) -> None: ...
     def solutions(
         self,
@@ -28,7 +32,7 @@ class Arm:
         base: NDArray[np.float64],
         start: NDArray[np.float64],
         /,
-    ) -> list[tuple[float, float, float, float, float, float]]: ...
+    ) -> list[tuple[float, ...]]: ...
     def solve(
         self,
         position: NDArray[np.float64],
@@ -40,4 +44,4 @@ class Arm:
         tol: float,
         out: NDArray[np.float64],
         /,
-    ) -> tuple[int, int]: ...
+    ) -> tuple[int, int, int]: ...

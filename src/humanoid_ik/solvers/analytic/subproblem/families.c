@@ -418,3 +418,122 @@ int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* L, con
   if (!inside && n) memcpy(out, near, sizeof near);
   return inside;
 }
+
+/* ------------------------------------------------------------------ a 7th joint, locked */
+
+/* G of the 6-hinge arm left when the 7-hinge arm's joint `locked` (0: the first, 6: the
+   last) is held at t: G7 = e^(h1 q1) ... e^(h7 q7) loses e^(h t) on its side */
+static void unlock(const double* h, const double* p, int locked, double t, const double* GR,
+                   const double* Gp, double* GR6, double* Gp6) {
+  double Rm[9], c[3], u[3]; /* e^(-h t): x -> Rm x + u, u = p - Rm p */
+  rot_mat(h, -t, Rm);
+  mat_vec(Rm, p, c);
+  sub(p, c, u);
+  if (locked == 0) { /* e^(-h t) G7 */
+    mat_mul(Rm, GR, GR6);
+    mat_vec(Rm, Gp, c);
+    add(c, u, Gp6);
+  } else { /* G7 e^(-h t) */
+    mat_mul(GR, Rm, GR6);
+    mat_vec(GR, u, c);
+    add(c, Gp, Gp6);
+  }
+}
+
+/* the 6 angles of the unlocked joints (k the locked one) out of 7, or back */
+static void drop(const double* q7, int k, double* q6) {
+  for (int i = 0, j = 0; i < 7; i++)
+    if (i != k) q6[j++] = q7[i];
+}
+static void insert(const double* q6, int k, double t, double* q7) {
+  for (int i = 0, j = 0; i < 7; i++) q7[i] = i == k ? t : q6[j++];
+}
+
+int sp_locked_solutions(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
+                        double t, double out[MAXSOL][7]) {
+  double GR6[9], Gp6[3], s6[6], sol[MAXSOL][6];
+  int k = a->locked;
+  unlock(a->h, a->p, k, t, GR, Gp, GR6, Gp6);
+  drop(q0, k, s6);
+  int n = sp_solve_all(&a->arm, GR6, Gp6, s6, sol);
+  for (int i = 0; i < n; i++) insert(sol[i], k, t, out[i]);
+  return n;
+}
+
+/* The locked joint at t: the other six by the 6-hinge families and their ranges
+   (sp_pick), the pick into out (7); returns how many fit the ranges, *n how many
+   solutions there were. */
+static int locked_at(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
+                     const double* L, const double* U, double tol, double t, double* out, int* n) {
+  double GR6[9], Gp6[3], s6[6], l6[6], u6[6], pick[6], sol[MAXSOL][6];
+  int k = a->locked;
+  unlock(a->h, a->p, k, t, GR, Gp, GR6, Gp6);
+  drop(q0, k, s6), drop(L, k, l6), drop(U, k, u6);
+  *n = sp_solve_all(&a->arm, GR6, Gp6, s6, sol);
+  int inside = sp_pick(sol, *n, s6, l6, u6, tol, pick);
+  insert(pick, k, t, out);
+  return inside;
+}
+
+/* The search over the locked joint: its start value first (clipped into its range), then
+   steps of SEARCH_COARSE outwards, both ways in turn, to the ends of its range (half a
+   turn each way when unlimited); at the first step with a solution in range, the value
+   nearest the start that has one is found by bisection between it and the step before
+   (SEARCH_HALVINGS times), and the answer is the in-range solution nearest the start
+   there. A window narrower than the coarse step is looked for again in steps of
+   SEARCH_STEP when the coarse steps found none. *tried: the values tried; *found: the
+   most solutions at one of them. With none inside anywhere, out holds the start value's
+   out-of-range pick where it has solutions, else the first tried value's that has, else
+   q0. */
+static int scan(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
+                const double* L, const double* U, double tol, double t0, double below,
+                double above, double step, double* out, int* found, int* tried, double* miss,
+                int* have_miss) {
+  int n;
+  for (int j = 0;; j++) {
+    double d = j * step;
+    if (d > below && d > above) return 0;
+    for (int side = 0; side < (j ? 2 : 1); side++) {
+      if ((side == 0 && d > above) || (side == 1 && d > below)) continue;
+      double sign = side == 0 ? 1.0 : -1.0, t = t0 + sign * d, x[7];
+      int inside = locked_at(a, GR, Gp, q0, L, U, tol, t, x, &n);
+      ++*tried;
+      if (n > *found) *found = n;
+      if (!inside) {
+        if (n && !*have_miss) memcpy(miss, x, sizeof x), *have_miss = 1;
+        continue;
+      }
+      memcpy(out, x, sizeof x);
+      if (j == 0) return inside;
+      double in = d, gap = d - step; /* in range at in, not at gap */
+      for (int h = 0; h < SEARCH_HALVINGS; h++) {
+        double mid = 0.5 * (in + gap), y[7];
+        int k = locked_at(a, GR, Gp, q0, L, U, tol, t0 + sign * mid, y, &n);
+        ++*tried;
+        if (n > *found) *found = n;
+        if (k) in = mid, inside = k, memcpy(out, y, sizeof y);
+        else gap = mid;
+      }
+      return inside;
+    }
+  }
+}
+
+int sp_search(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
+              const double* L, const double* U, double tol, double* out, int* found, int* tried) {
+  int k = a->locked, have_miss = 0;
+  double lo = L[k], hi = U[k], t0 = q0[k], miss[7];
+  if (isfinite(lo) && t0 < lo) t0 = lo;
+  if (isfinite(hi) && t0 > hi) t0 = hi;
+  double below = isfinite(lo) ? t0 - lo : M_PI, above = isfinite(hi) ? hi - t0 : M_PI;
+  *found = 0, *tried = 0;
+  memcpy(out, q0, 7 * sizeof(double));
+  for (int pass = 0; pass < 2; pass++) {
+    double step = pass ? SEARCH_STEP : SEARCH_COARSE;
+    int inside = scan(a, GR, Gp, q0, L, U, tol, t0, below, above, step, out, found, tried, miss,
+                      &have_miss);
+    if (inside) return inside;
+  }
+  memcpy(out, have_miss ? miss : q0, 7 * sizeof(double));
+  return 0;
+}

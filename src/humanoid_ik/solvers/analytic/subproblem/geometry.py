@@ -19,8 +19,15 @@ chain):
 - ``three parallel axes``: ``h2 || h3 || h4`` (the UR family), with ``h1`` and ``h5``
   not parallel to them; the wrist may be anything.
 
+A 7-hinge chain is solved with its last (else its first) joint *locked*: if the six
+other joints are a family above, the locked joint is searched (in C): its start value
+first, then steps of 0.02 rad outwards to the ends of its range, until at some value one
+of the six-joint solutions fits the ranges (the 1-D search of IK-Geo and IKFast's free
+joint; Panda with its last joint locked is a spherical shoulder with ``h5`` and ``h6``
+meeting, Talos's arm with its first a spherical wrist with ``h2`` and ``h3`` meeting).
+
 Axes are *parallel* within :data:`PARALLEL_TOL` (the sine of their angle). Any other
-6-hinge chain gets a reason, said by ``inspect`` and used by ``auto``.
+6- or 7-hinge chain gets a reason, said by ``inspect`` and used by ``auto``.
 """
 
 from __future__ import annotations
@@ -82,6 +89,9 @@ class Family(NamedTuple):
     """Where the two placing axes meet (cases 2 and 3)."""
     name: str
     """The family in words, in the chain's own joint numbers."""
+    locked: int = -1
+    """A 7-hinge chain's joint held and searched over: 0 (the first) or 6 (the last);
+    -1 on a 6-hinge chain."""
 
 
 def arm_geometry(chain: Chain) -> tuple[ArmGeometry, NDArray[np.float64]]:
@@ -118,13 +128,32 @@ def _parallel(a: NDArray, b: NDArray) -> bool:
 
 
 def family_of(geo: ArmGeometry) -> tuple[Family | None, str]:
-    """The chain's :class:`Family`, or ``None`` and why none applies."""
-    if geo.axes.shape[0] != 6:
-        return None, f"subproblem needs 6 hinges; the chain has {geo.axes.shape[0]} joint(s)"
-    forward = _family(geo.axes, geo.points, False)
+    """The chain's :class:`Family`, or ``None`` and why none applies: 6 hinges, or 7 with
+    the last (else the first) locked (``Family.locked``)."""
+    n = geo.axes.shape[0]
+    if n == 7:
+        for locked in (6, 0):
+            keep = [i for i in range(7) if i != locked]
+            six = ArmGeometry(geo.axes[keep], geo.points[keep], geo.end_rotation, geo.end_position)
+            family, _ = _six(six, 1 if locked == 0 else 0)
+            if family is not None:
+                name = f"{family.name}, joint {locked + 1} searched"
+                return family._replace(locked=locked, name=name), ""
+        return None, (
+            "subproblem: 7 hinges, and neither the first nor the last held leaves six of a "
+            "family it decomposes (a spherical wrist or shoulder, three parallel axes)"
+        )
+    if n != 6:
+        return None, f"subproblem needs 6 or 7 hinges; the chain has {n} joint(s)"
+    return _six(geo, 0)
+
+
+def _six(geo: ArmGeometry, offset: int) -> tuple[Family | None, str]:
+    """:func:`family_of` of six hinges, named with their numbers plus ``offset``."""
+    forward = _family(geo.axes, geo.points, False, offset)
     if forward is not None:
         return forward, ""
-    backward = _family(-geo.axes[::-1], geo.points[::-1], True)
+    backward = _family(-geo.axes[::-1], geo.points[::-1], True, offset)
     if backward is not None:
         return backward, ""
     W = meeting(geo.points[3:], geo.axes[3:])[0]
@@ -141,20 +170,21 @@ def family_of(geo: ArmGeometry) -> tuple[Family | None, str]:
     )
 
 
-def _family(h: NDArray, p: NDArray, reverse: bool) -> Family | None:
-    """The family of the chain ``(h, p)`` in the solved order, or ``None``."""
+def _family(h: NDArray, p: NDArray, reverse: bool, offset: int) -> Family | None:
+    """The family of the chain ``(h, p)`` in the solved order, or ``None``; named with
+    the chain's joint numbers (the six's plus ``offset``)."""
+
+    def number(i: int) -> int:  # the chain's own number of the solved order's axis i
+        return (7 - i if reverse else i) + offset
 
     def axes(*solved: int, sep: str) -> str:  # the chain's own numbers, ascending
-        return sep.join(f"h{k}" for k in sorted(7 - i if reverse else i for i in solved))
+        return sep.join(f"h{k}" for k in sorted(number(i) for i in solved))
 
     zero = np.zeros(3)
     W, _ = meeting(p[3:], h[3:])
     if W is not None and not _parallel(h[3], h[4]) and not _parallel(h[4], h[5]):
-        kind = (
-            "spherical shoulder (axes 1, 2, 3 meet)"
-            if reverse
-            else ("spherical wrist (axes 4, 5, 6 meet)")
-        )
+        meet = ", ".join(str(k) for k in sorted(number(i) for i in (4, 5, 6)))
+        kind = f"spherical {'shoulder' if reverse else 'wrist'} (axes {meet} meet)"
         cases: list[tuple[int, bool, NDArray | None, str]] = [
             (0, _parallel(h[1], h[2]) and not _parallel(h[0], h[1]), None, axes(2, 3, sep=" || ")),
             (1, _parallel(h[0], h[1]) and not _parallel(h[0], h[2]), None, axes(1, 2, sep=" || ")),
@@ -193,8 +223,10 @@ class SubproblemCache:
         self.seen = chain.base_state()
         self.inner = False
         """A joint off the chain lies between its joints."""
-        if chain.n != 6:
-            self.reason: str | None = f"subproblem needs 6 hinges; the chain has {chain.n} joint(s)"
+        if chain.n not in (6, 7):
+            self.reason: str | None = (
+                f"subproblem needs 6 or 7 hinges; the chain has {chain.n} joint(s)"
+            )
             return
         path = chain.path_joint_ids.tolist()  # tip first
         mine = set(chain.joint_ids.tolist())
@@ -211,7 +243,13 @@ class SubproblemCache:
         self.family, self.arm = family, None
         if family is None:
             return
-        h, p = (-geo.axes[::-1], geo.points[::-1]) if family.reverse else (geo.axes, geo.points)
+        h, p = geo.axes, geo.points
+        k = family.locked
+        line = (h[k].copy(), p[k].copy()) if k >= 0 else (None, None)  # the locked joint's
+        if k >= 0:  # the six others
+            h, p = np.delete(h, k, axis=0), np.delete(p, k, axis=0)
+        if family.reverse:
+            h, p = -h[::-1], p[::-1]
         self.arm = _subproblem.Arm(
             family.family,
             family.case,
@@ -222,6 +260,8 @@ class SubproblemCache:
             np.ascontiguousarray(geo.end_position),
             np.ascontiguousarray(family.wrist, dtype=np.float64),
             np.ascontiguousarray(family.meet, dtype=np.float64),
+            k,
+            *line,
         )
 
     def current(self, chain: Chain) -> tuple[_subproblem.Arm, NDArray[np.float64]]:

@@ -1,6 +1,7 @@
 """The ``subproblem`` solver: exact pose IK of a 6-hinge arm of a family the
 subproblems decompose (:mod:`.geometry`), every solution found in C, the ranges applied
-with the 2 pi shift, the in-range solution nearest the start returned."""
+with the 2 pi shift, the in-range solution nearest the start returned; a 7-hinge arm
+whose first or last joint, held, leaves such six, by a search over that joint."""
 
 from __future__ import annotations
 
@@ -41,6 +42,14 @@ class Subproblem(Solver):
     (nearest the start where several fit), and the in-range solution nearest the start
     (sum of squared differences) is returned.
 
+    A 7-hinge chain whose last (else first) joint, held, leaves six of such a family
+    (Panda, Talos's arm) is solved with that joint *searched*: its start value first,
+    then in steps of 0.02 rad outwards, both ways in turn, to the ends of its range; the
+    first value at which a solution of the six fits the ranges gives the answer (the
+    in-range one nearest the start there). Exact where found; not complete: a target
+    reachable only inside a window of the locked joint narrower than the step can be
+    missed (``auto`` then runs ``lm``).
+
     Errors: MuJoCo's FK of the answer (``mj_kinematics``), measured in C by the formula
     of :func:`~humanoid_ik.core.measures.pose_error` (the distance and the angle between
     the frames), as ``lm``'s kernel measures its own: ``pose_error``'s three MuJoCo
@@ -49,14 +58,18 @@ class Subproblem(Solver):
     Statuses: ``converged``; ``unreachable`` for a target no joint vector reaches (the
     start is returned) or one whose every solution leaves the ranges (the solution that
     leaves them least, clipped into them, is returned). ``details``: ``solutions`` (how
-    many reach the target) and ``inside`` (how many of them are in range).
+    many reach the target), ``inside`` (how many of them are in range) and, on a 7-hinge
+    chain, ``tried`` (the values of the locked joint tried; ``solutions`` is then the
+    most at one value, ``inside`` the count at the value taken).
 
     Caches: the chain keeps its family and the compiled arm
     (:class:`~.geometry.SubproblemCache`); :meth:`prepare` builds them.
     """
 
     name: ClassVar[str] = "subproblem"
-    summary: ClassVar[str] = "exact 6-hinge IK by Paden-Kahan subproblems, every solution, in C"
+    summary: ClassVar[str] = (
+        "exact 6-hinge IK by Paden-Kahan subproblems, every solution, in C (7 hinges: one searched)"
+    )
     supports_orientation: ClassVar[bool] = True
     Options: ClassVar[type[SolverOptions]] = SubproblemOptions
 
@@ -75,8 +88,8 @@ class Subproblem(Solver):
         if quat is None:
             raise SolverError(POSE_ONLY)
         arm, base = subproblem_cache(chain).current(chain)
-        q = np.empty(6)
-        found, inside = arm.solve(
+        q = np.empty(chain.n)
+        found, inside, tried = arm.solve(
             target.position, quat, base, q0, chain.lower, chain.upper, RANGE_TOL, q
         )
         chain.set_q(q)  # the scratch data at the answer; MuJoCo's FK of it measured
@@ -88,6 +101,12 @@ class Subproblem(Solver):
             o = self.options
             ok = ep < o.tol and er < o.rot_tol
             status = Status.CONVERGED if ok else Status.MAX_ITERATIONS
+        elif chain.n == 7:
+            status = Status.UNREACHABLE
+            message = (
+                f"no joint vector found inside the joint ranges at {tried} values of the "
+                "searched joint"
+            )
         elif found:
             status = Status.UNREACHABLE
             message = f"{found} joint vectors reach the target, none inside the joint ranges"
@@ -95,6 +114,8 @@ class Subproblem(Solver):
             status = Status.UNREACHABLE
             message = "no joint vector reaches the target (beyond the arm's reach)"
         details = {"solutions": found, "inside": inside}
+        if chain.n == 7:
+            details["tried"] = tried
         converged = status is Status.CONVERGED
         return IKResult(q, converged, 1, ep, er, status, self.name, message, details)
 
@@ -104,7 +125,8 @@ def solutions(
 ) -> list[NDArray[np.float64]]:
     """Every joint vector ``(6,)`` that puts ``chain``'s end frame at the pose
     ``target``, each angle in (-pi, pi] (no range applied); ``q0`` (default: the
-    chain's joints) only settles a straight wrist's free angle.
+    chain's joints) only settles a straight wrist's free angle. On a 7-hinge chain,
+    every joint vector ``(7,)`` with the searched joint at its value in ``q0``.
 
     Raises:
         SolverError: no exact decomposition applies to the chain.

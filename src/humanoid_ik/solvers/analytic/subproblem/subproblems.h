@@ -19,6 +19,19 @@ typedef struct {
   double W[3], O[3];       /* the wrist point; the meeting point of the position case */
 } ArmGeometry;
 
+/* A 7-hinge arm whose joint `locked` (0: the first, 6: the last) is searched over: the
+   6-hinge arm of the other joints (`arm`, its end frame the 7-hinge arm's at zero) and
+   the locked joint's axis and point, in the base frame at zero. */
+typedef struct {
+  ArmGeometry arm;
+  int locked;
+  double h[3], p[3];
+} LockedArm;
+
+#define SEARCH_COARSE 0.25 /* [rad] between two values of the locked joint searched first */
+#define SEARCH_HALVINGS 2  /* bisections towards the start after a coarse step finds one */
+#define SEARCH_STEP 0.002  /* [rad] between two values searched when the coarse steps miss */
+
 /* G = T T0^-1 in the base frame from a world target (position 3, wxyz quaternion 4)
    and the base's world pose (position 3, row-major rotation 9) */
 void sp_target(const ArmGeometry* a, const double* pos, const double* quat, const double* base,
@@ -34,8 +47,17 @@ int sp_solve_all(const ArmGeometry* a, const double* GR, const double* Gp, const
 int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* lower,
             const double* upper, double tol, double* out);
 
-/* the distance [m] and the rotation angle [rad, 0..pi] from a frame (position, row-major
-   rotation) to a target (position, wxyz quaternion) */
+/* every solution (7 angles) of G7 with the locked joint at t (the others in (-pi, pi]) */
+int sp_locked_solutions(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
+                        double t, double out[MAXSOL][7]);
+
+/* the search over the locked joint (see families.c): the pick into out (7); returns how
+   many solutions fit the ranges at the value taken, *found the most solutions at one
+   value, *tried how many values were tried */
+int sp_search(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
+              const double* lower, const double* upper, double tol, double* out, int* found,
+              int* tried);
+
 /* the subproblems (subproblems.c): sp1 returns how well its angle is defined (0: any),
    the others how many solutions they wrote */
 double sp1(const double* k, const double* p, const double* q, double* t);
