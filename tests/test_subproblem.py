@@ -10,8 +10,11 @@ a plain Python reading of the same rule."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 import threading
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -464,3 +467,24 @@ def test_seven_hinge_real_arms_by_search_and_auto_keeps_lm(name):
     auto = make_solver("auto")
     assert auto.choice(chain, pose=True).name == "lm"
     assert "searched" in auto.reason(chain, pose=True)
+
+
+@pytest.mark.slow
+def test_searched_benchmark_reports_both_solvers():
+    """benchmarks/searched.py prints, per arm, both solvers' successes, CPU median and
+    p95 and their ratio, and the values the search tried (speed itself is the
+    benchmark's business, not a test's)."""
+    root = Path(__file__).resolve().parents[1]
+    script = str(root / "benchmarks" / "searched.py")
+    out = subprocess.run(
+        [sys.executable, script, "--n", "6", "--arms", "panda,talos"],
+        capture_output=True, text=True, timeout=300, cwd=root,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    rows = out.stdout.splitlines()
+    assert [r.split()[0] for r in rows] == ["panda", "talos"]
+    for row in rows:
+        assert "subproblem 6/6 median" in row and "| lm 6/6 median" in row
+        sp, lm = (float(row.split(f"{k} 6/6 median ")[1].split()[0]) for k in ("subproblem", "lm"))
+        ratio = float(row.split("| ratio ")[1].split()[0])
+        assert ratio == pytest.approx(sp / lm, abs=0.01)

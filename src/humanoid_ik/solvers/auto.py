@@ -13,8 +13,8 @@ The choice depends on the chain and the target only (measured on real arms in
   solution, the in-range one nearest the start, on UR5 and Kinova at ``lm``'s median
   CPU or below with a p95 a quarter of ``lm``'s (``benchmarks/peers.py``,
   ``docs/subproblem.md``); else ``lm``, also on a 7-hinge chain ``subproblem`` solves
-  by searching its first or last joint (Panda, Talos's arm: the search measured at
-  ``lm``'s median CPU on Panda and 1.2 times it on Talos, ``docs/subproblem.md``);
+  by searching its first or last joint (Panda, Talos's arm: the search's CPU median
+  measured 1.04 times ``lm``'s on Panda and 1.21 on Talos, ``benchmarks/searched.py``);
 - a position target: ``two_link`` where it places the end frame wherever the chain can:
   shoulder axes that meet (or a planar shoulder), an elbow, and nothing after the elbow
   that moves the end frame (no wrist, as on a 4-joint H1-like arm, or an end frame on
