@@ -211,7 +211,11 @@ def test_limit_helpers(right_arm):
     q[3] = -0.5
     assert not right_arm.within_limits(q)
     assert right_arm.limit_margin(q) == pytest.approx(-0.5)
-    assert right_arm.clip(q)[3] == 0.0
+    clipped = right_arm.clip(q)
+    assert clipped[3] == 0.0 and q[3] == -0.5  # a new array
+    out = right_arm.clip(q, out=q)  # or the one given, overwritten
+    assert out is q and q[3] == 0.0
+    np.testing.assert_array_equal(q, clipped)
 
 
 def test_bundled_model_path_points_at_scene():

@@ -404,7 +404,13 @@ def test_the_kernel_lives_in_the_robot_state_and_the_solver_holds_none():
     assert kernel(Chain(c.robot, "left_palm_site")) is k  # another chain of the robot
     solver.solve(c, [0.3, -0.25, 1.1])
     assert kernel(c) is k
-    assert set(vars(solver)) == {"options"}
+    # the options and the kernel's immutable tuple of them, nothing a solve writes
+    assert set(vars(solver)) == {"options", "_kernel_options"}
+    o = solver.options
+    assert solver.kernel_options() == (
+        o.tol, o.rot_tol, o.orientation_weight**2, o.error_damping, o.min_damping,
+        o.max_iterations, o.stall_window,
+    )  # fmt: skip
     c.model.body_pos[c.model.body("right_forearm_link").id] += [0.0, 0.0, 0.01]
     res = solver.solve(c, [0.35, -0.30, 1.15])
     assert kernel(c) is not k  # rebuilt from the changed model

@@ -494,6 +494,16 @@ def test_a_start_that_is_not_real_numbers_is_refused(solver_name, q0, got):
     for bad, said in ((short, rf"shape \({n},\), got \({n - 1},\)"), (nan, "not finite")):
         with pytest.raises(TargetError, match=said):
             solve(chain, target, solver_name, q0=bad)
+    # a float64 array of the right shape takes a shorter way in: the same refusals
+    for bad in (np.full(n, math.nan), np.r_[np.zeros(n - 1), -math.inf]):
+        with pytest.raises(TargetError, match="is not finite"):
+            solve(chain, target, solver_name, q0=bad)
+    np.testing.assert_array_equal(chain.data.qpos, before)
     # real numbers of any NumPy kind are taken: ints, float32, an object array of numbers
     for good in (list(range(n)), np.zeros(n, np.float32), np.zeros(n, object)):
         assert solve(chain, target, solver_name, q0=good).q.shape == (n,)
+    # finite values whose sum overflows are a start, moved into the ranges; the caller's
+    # array is not the one clipped
+    huge = np.full(n, 1e308)
+    solve(chain, target, solver_name, q0=huge)
+    np.testing.assert_array_equal(huge, np.full(n, 1e308))

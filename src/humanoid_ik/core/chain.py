@@ -525,10 +525,14 @@ class Chain:
         mujoco.mj_forward(data.model, data)
 
     # ----------------------------------------------------------------- limits
-    def clip(self, q: ArrayLike) -> NDArray[np.float64]:
-        """``q`` moved inside the joint ranges."""
+    def clip(
+        self, q: ArrayLike, out: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
+        """``q`` moved inside the joint ranges: a new array, or ``out`` (float64
+        ``(n,)``, which may be ``q`` itself) overwritten."""
         # np.minimum/np.maximum: np.clip's wrapper costs more than the clipping here
-        return np.minimum(np.maximum(np.asarray(q, dtype=np.float64), self.lower), self.upper)
+        low = np.maximum(np.asarray(q, dtype=np.float64), self.lower, out=out)
+        return np.minimum(low, self.upper, out=low)
 
     def within_limits(self, q: ArrayLike, tol: float = 1e-9) -> bool:
         """True when every joint lies inside its range (with ``tol`` [rad])."""

@@ -128,15 +128,19 @@ def pose_error(
     Returns:
         ``(position error [m], orientation error [rad] or nan)``.
     """
+    # the norms in Python floats (tolist): NumPy's scalar indexing cost half the call
     np.subtract(p_target, p_site, out=out[:3])
-    ep = math.sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2])
+    x, y, z = out[:3].tolist()
+    ep = math.sqrt(x * x + y * y + z * z)
     if quat_target is None:
         return ep, math.nan
     R = R_site.reshape(9)
-    mujoco.mju_mat2Quat(quat_buf[0], R)
-    mujoco.mju_subQuat(quat_buf[1, :3], quat_target, quat_buf[0])  # site frame
-    mujoco.mju_mulMatVec3(out[3:6], R, quat_buf[1, :3])  # to the world frame
-    er = math.sqrt(out[3] * out[3] + out[4] * out[4] + out[5] * out[5])
+    site, rot = quat_buf[0], quat_buf[1, :3]
+    mujoco.mju_mat2Quat(site, R)
+    mujoco.mju_subQuat(rot, quat_target, site)  # site frame
+    mujoco.mju_mulMatVec3(out[3:6], R, rot)  # to the world frame
+    x, y, z = out[3:6].tolist()
+    er = math.sqrt(x * x + y * y + z * z)
     return ep, er
 
 

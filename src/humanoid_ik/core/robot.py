@@ -105,7 +105,10 @@ class Robot:
         self.jac = np.zeros((6, self.model.nv))
         self.jacp, self.jacr = self.jac[:3], self.jac[3:]
         self.version = 0
-        self._kinematics = _snapshot(self.model, _KINEMATIC_FIELDS)
+        # the arrays view the model's memory, which stays where it is: read once, a
+        # sync compares their bytes without MjModel's attribute lookups (half its cost)
+        self._kinematic_arrays = [getattr(self.model, f) for f in _KINEMATIC_FIELDS]
+        self._kinematics = self._kinematic_snapshot()
         self._structure = _snapshot(self.model, _STRUCTURE_FIELDS)
         self._busy = threading.Lock()
         self._workspace: dict[Hashable, Any] = {}
@@ -177,7 +180,7 @@ class Robot:
         Returns:
             True when the model had changed.
         """
-        now = _snapshot(self.model, _KINEMATIC_FIELDS)
+        now = self._kinematic_snapshot()
         if now == self._kinematics:
             return False
         self.refresh(now)
@@ -186,9 +189,13 @@ class Robot:
     def refresh(self, snapshot: tuple[bytes, ...] | None = None) -> None:
         """Drop everything built from the model (the workspace) and count a new
         :attr:`version` (see :meth:`sync`, which calls this when the model changed)."""
-        self._kinematics = snapshot or _snapshot(self.model, _KINEMATIC_FIELDS)
+        self._kinematics = snapshot or self._kinematic_snapshot()
         self._workspace.clear()
         self.version += 1
+
+    def _kinematic_snapshot(self) -> tuple[bytes, ...]:
+        # a list, not a generator (see _snapshot)
+        return tuple([a.tobytes() for a in self._kinematic_arrays])
 
     def workspace(self, key: Hashable, build: Callable[[], T]) -> T:
         """What a solver builds for this robot state, by ``build()`` on the first call

@@ -73,7 +73,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -173,13 +173,18 @@ class LM(Solver):
         o = self.options
         return restart_poses(chain, q0, target, o.restarts, o.library_seeds, o.seed)
 
-    def kernel_options(self) -> tuple[float, float, float, float, float, int, int]:
-        """The options as the kernel takes them (``_lm_kernel.Kernel.descend``)."""
+    def __init__(self, **options: Any):
+        super().__init__(**options)
         o = self.options
-        return (
+        self._kernel_options = (
             o.tol, o.rot_tol, o.orientation_weight**2, o.error_damping, o.min_damping,
             o.max_iterations, o.stall_window,
         )  # fmt: skip
+
+    def kernel_options(self) -> tuple[float, float, float, float, float, int, int]:
+        """The options as the kernel takes them (``_lm_kernel.Kernel.descend``): made
+        once from the (immutable) options."""
+        return self._kernel_options
 
     def solve_many(
         self,
@@ -267,7 +272,10 @@ class LM(Solver):
             if ok:
                 chain.set_q(q)  # the scratch data at the returned pose
                 rot = er if quat is not None else None
-                res = IKResult(q, True, iterations, ep, rot, Status.CONVERGED, self.name)
+                q.setflags(write=False)  # q is this solve's own array: the result's
+                res = IKResult.unchecked(
+                    q, True, iterations, ep, rot, Status.CONVERGED, self.name
+                )
                 return res if target.pole is None else pole_steps(self, chain, target, res)
             best.offer(q, pose_cost(ep, er))  # er is 0 for a position target
         return self._result(chain, target, best.q, iterations, message=self.gave_up())

@@ -21,8 +21,9 @@ chain):
 
 A 7-hinge chain is solved with its last (else its first) joint *locked*: if the six
 other joints are a family above, the locked joint is searched (in C): its start value
-first, then steps of 0.02 rad outwards to the ends of its range, until at some value one
-of the six-joint solutions fits the ranges (the 1-D search of IK-Geo and IKFast's free
+first, then 0.25 rad steps outwards with two bisections back towards the start, else
+0.002 rad steps to the ends of its range, until at some value one of the six-joint
+solutions fits the ranges (the 1-D search of IK-Geo and IKFast's free
 joint; Panda with its last joint locked is a spherical shoulder with ``h5`` and ``h6``
 meeting, Talos's arm with its first a spherical wrist with ``h2`` and ``h3`` meeting).
 

@@ -6,6 +6,7 @@ whose first or last joint, held, leaves such six, by a search over that joint.""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import ClassVar
 
 import numpy as np
@@ -44,16 +45,15 @@ class Subproblem(Solver):
 
     A 7-hinge chain whose last (else first) joint, held, leaves six of such a family
     (Panda, Talos's arm) is solved with that joint *searched*: its start value first,
-    then in steps of 0.02 rad outwards, both ways in turn, to the ends of its range; the
-    first value at which a solution of the six fits the ranges gives the answer (the
-    in-range one nearest the start there). Exact where found; not complete: a target
-    reachable only inside a window of the locked joint narrower than the step can be
-    missed (``auto`` then runs ``lm``).
+    then in steps of 0.25 rad outwards, both ways in turn, with two bisections back
+    towards the start at the first value where a solution of the six fits the ranges,
+    and steps of 0.002 rad where the coarse pass found none (``docs/subproblem.md``);
+    the in-range solution nearest the start at the value found is the answer. Exact
+    where found; not complete: a target reachable only inside a window of the held
+    joint narrower than the fine step can be missed.
 
-    Errors: MuJoCo's FK of the answer (``mj_kinematics``), measured in C by the formula
-    of :func:`~humanoid_ik.core.measures.pose_error` (the distance and the angle between
-    the frames), as ``lm``'s kernel measures its own: ``pose_error``'s three MuJoCo
-    calls on numpy views cost about 4 us, as much as the solve itself in C.
+    Errors: MuJoCo's FK of the answer (``mj_kinematics``), measured by
+    :func:`~humanoid_ik.core.measures.pose_error`.
 
     Statuses: ``converged``; ``unreachable`` for a target no joint vector reaches (the
     start is returned) or one whose every solution leaves the ranges (the solution that
@@ -117,7 +117,10 @@ class Subproblem(Solver):
         if chain.n == 7:
             details["tried"] = tried
         converged = status is Status.CONVERGED
-        return IKResult(q, converged, 1, ep, er, status, self.name, message, details)
+        q.setflags(write=False)  # q is this solve's own array: the result's
+        return IKResult.unchecked(
+            q, converged, 1, ep, er, status, self.name, message, MappingProxyType(details)
+        )
 
 
 def solutions(
