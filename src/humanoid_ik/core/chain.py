@@ -525,9 +525,7 @@ class Chain:
         mujoco.mj_forward(data.model, data)
 
     # ----------------------------------------------------------------- limits
-    def clip(
-        self, q: ArrayLike, out: NDArray[np.float64] | None = None
-    ) -> NDArray[np.float64]:
+    def clip(self, q: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """``q`` moved inside the joint ranges: a new array, or ``out`` (float64
         ``(n,)``, which may be ``q`` itself) overwritten."""
         # np.minimum/np.maximum: np.clip's wrapper costs more than the clipping here

@@ -273,9 +273,7 @@ class LM(Solver):
                 chain.set_q(q)  # the scratch data at the returned pose
                 rot = er if quat is not None else None
                 q.setflags(write=False)  # q is this solve's own array: the result's
-                res = IKResult.unchecked(
-                    q, True, iterations, ep, rot, Status.CONVERGED, self.name
-                )
+                res = IKResult.unchecked(q, True, iterations, ep, rot, Status.CONVERGED, self.name)
                 return res if target.pole is None else pole_steps(self, chain, target, res)
             best.offer(q, pose_cost(ep, er))  # er is 0 for a position target
         return self._result(chain, target, best.q, iterations, message=self.gave_up())
