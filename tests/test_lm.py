@@ -466,18 +466,37 @@ def test_the_kernel_refuses_bad_arguments():
         call(quat=np.zeros(3))
     with pytest.raises(ValueError, match="Kernel"):
         _lm_kernel.Kernel(b"not a model")
-    nearest = _lm_kernel.seed_nearest
     out = np.empty(2, dtype=np.int64)
+    one = np.array([0.0, 0, 0, 1, 1, 1, 1])  # one cell of side 1 at the origin
+    cells = np.array([0, 2])
+
+    def nearest(positions, rotations, target_rot=None, length=0.3, grid=one, cells=cells, out=out):
+        args = (positions, rotations, grid, cells, np.zeros(3), target_rot, length, out)
+        return _lm_kernel.seed_nearest(*args)
+
     with pytest.raises(ValueError, match="3 values per pose, got 4"):
-        nearest(np.zeros(4), np.zeros(9), np.zeros(3), None, 0.3, out)
+        nearest(np.zeros(4), np.zeros(9))
     with pytest.raises(ValueError, match="rotations must have 18 values"):
-        nearest(np.zeros(6), np.zeros(9), np.zeros(3), np.zeros(9), 0.3, out)
+        nearest(np.zeros(6), np.zeros(9), np.zeros(9))
     with pytest.raises(ValueError, match="length must be >= 0"):
-        nearest(np.zeros(6), np.zeros(18), np.zeros(3), None, -1.0, out)
+        nearest(np.zeros(6), np.zeros(18), length=-1.0)
     with pytest.raises(TypeError, match="int64"):
-        nearest(np.zeros(6), np.zeros(18), np.zeros(3), None, 0.3, np.empty(2))
-    assert nearest(np.array([0.0, 0, 2, 0, 0, 1]), np.zeros(18), np.zeros(3), None, 0.3, out) == 2
+        nearest(np.zeros(6), np.zeros(18), out=np.empty(2))
+    with pytest.raises(ValueError, match="grid must have 7 values"):
+        nearest(np.zeros(6), np.zeros(18), grid=np.zeros(6))
+    with pytest.raises(ValueError, match=r"cell counts must be whole numbers in \[1, 1024\]"):
+        nearest(np.zeros(6), np.zeros(18), grid=np.array([0.0, 0, 0, 1, 1.5, 1, 1]))
+    with pytest.raises(ValueError, match="side > 0"):
+        nearest(np.zeros(6), np.zeros(18), grid=np.array([0.0, 0, 0, 0, 1, 1, 1]))
+    with pytest.raises(ValueError, match="cells must have 2 values"):
+        nearest(np.zeros(6), np.zeros(18), cells=np.array([0, 1, 2]))
+    with pytest.raises(ValueError, match="cells must run from 0 to the 2 poses"):
+        nearest(np.zeros(6), np.zeros(18), cells=np.array([0, 3]))
+    assert nearest(np.array([0.0, 0, 2, 0, 0, 1]), np.zeros(18)) == 2
     assert out.tolist() == [1, 0]
+    # cells that overlap or run backwards rank wrongly, never read outside the poses
+    two = np.array([0.0, 0, 0, 1, 2, 1, 1])
+    assert nearest(np.zeros(6), np.zeros(18), grid=two, cells=np.array([0, 5, 2])) == 2
     # the kernel builds hinge and slide columns only: a ball's dof is refused
     ball = Chain.from_xml_string(
         '<mujoco><worldbody><body><joint type="ball"/><geom size=".1"/>'
@@ -626,6 +645,46 @@ def test_floor_benchmark_reports_the_kernel_against_the_floor():
             assert float(ratio.strip("(x)")) == pytest.approx(float(value) / floor, abs=0.1)
 
 
+@pytest.mark.parametrize("shape", ["cloud", "plane", "line", "point"])
+def test_the_seed_ranking_equals_a_full_sort_on_any_library(shape):
+    """The grid ranking (``_lm_kernel.seed_nearest``) equals a brute-force sort for
+    libraries spread in 3-D, in a plane, on a line and on one point (grids of one cell
+    along an axis), for targets inside, near and far outside them, with repeated
+    positions (ties in library order) and every count of poses."""
+    from humanoid_ik.core.rotations import quat_to_mat
+    from humanoid_ik.solvers.jacobian.seeds import grid
+
+    rng = np.random.default_rng(3)
+    L = 500
+    pos = rng.normal(size=(L, 3)) * [0.4, 0.3, 0.2]
+    if shape == "plane":
+        pos[:, 2] = 0.7
+    elif shape == "line":
+        pos[:, 1:] = 0.0
+    elif shape == "point":
+        pos[:] = [0.1, 0.2, 0.3]
+    pos[L // 2 :: 7] = pos[L // 2 - 1]  # repeated positions: equal costs
+    rot = np.array([quat_to_mat(q / np.linalg.norm(q)) for q in rng.normal(size=(L, 4))])
+    g, cell = grid(pos)
+    order = np.argsort(cell, kind="stable")
+    pos, rot = pos[order], rot[order]
+    cells = np.searchsorted(cell[order], np.arange(int(np.prod(g[4:])) + 1)).astype(np.int64)
+    for t in range(40):
+        tp = pos[t] + rng.normal(size=3) * (0.0, 0.05, 0.5, 5.0)[t % 4]
+        q = rng.normal(size=4)
+        R = quat_to_mat(q / np.linalg.norm(q)) if t % 2 else None
+        cost = np.linalg.norm(pos - tp, axis=1)
+        if R is not None:
+            cost = cost + 0.3 * (1.0 - (np.einsum("ij,nij->n", R, rot) - 1.0) / 2.0)
+        want = np.argsort(cost, kind="stable")
+        for k in (1, 8, 37, L):
+            out = np.empty(k, dtype=np.int64)
+            r9 = None if R is None else R.reshape(9)
+            args = (pos.reshape(-1), rot.reshape(-1), g, cells, tp, r9, 0.3, out)
+            assert _lm_kernel.seed_nearest(*args) == k
+            np.testing.assert_array_equal(out, want[:k])
+
+
 def test_seed_library_ranks_by_distance_and_angle(right_arm):
     """The restart poses come nearest first: the ranking equals a brute-force sort of
     distance + 0.3 m/rad x (1 - cos angle) from each pose's own FK, and the poses
@@ -649,6 +708,13 @@ def test_seed_library_ranks_by_distance_and_angle(right_arm):
         np.testing.assert_array_equal(
             lib.nearest(tgt, 10_000), lib.q[np.argsort(cost, kind="stable")]
         )
+        # the ranking visits the grid's cells; every pose lies in the cell it is filed in
+        low, side, dims = lib.grid[:3], lib.grid[3], lib.grid[4:].astype(int)
+        for k in range(int(np.prod(dims))):
+            ix, iy, iz = k % dims[0], k // dims[0] % dims[1], k // (dims[0] * dims[1])
+            inside = lib.positions[lib.cells[k] : lib.cells[k + 1]] - low
+            assert np.all(inside >= np.array([ix, iy, iz]) * side - 1e-12)
+            assert np.all(inside <= (np.array([ix, iy, iz]) + 1) * side + 1e-12)
         p, _ = c.fk(got[0])  # the library's FK is MuJoCo's
         np.testing.assert_allclose(p, lib.positions[want[0]], atol=1e-12)
         starts = list(restart_poses(c, c.q, tgt, restarts=5, library_seeds=2, seed=0))
@@ -703,3 +769,21 @@ def test_threads_on_a_shared_model_match_one_thread():
         assert len(out) == len(serial)
         for q, q1 in zip(out, serial, strict=True):
             np.testing.assert_array_equal(q, q1)
+
+
+@pytest.mark.slow
+def test_seed_ranking_benchmark_checks_every_ranking():
+    """benchmarks/seed_ranking.py prints, per arm, the library's grid, the CPU median and
+    p95 of a ranking, and how many rankings differ from a full sort: none."""
+    root = Path(__file__).resolve().parents[1]
+    script = str(root / "benchmarks" / "seed_ranking.py")
+    out = subprocess.run(
+        [sys.executable, script, "--n", "6", "--arms", "baxter,ur5"],
+        capture_output=True, text=True, timeout=300, cwd=root,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    rows = out.stdout.splitlines()
+    assert [r.split()[0] for r in rows] == ["baxter", "ur5"]
+    for row in rows:
+        assert row.split()[1] == "4000" and "CPU median" in row and " us, p95 " in row
+        assert row.endswith("0 of 6 rankings unlike a full sort")

@@ -28,6 +28,7 @@ _KINDS = {
     "O": "objects that are not real numbers",
 }
 """What a start's NumPy dtype kind says it holds, when that is not real numbers."""
+_FLOAT64 = np.dtype(np.float64)
 
 
 def check_start(chain: Chain, q0: ArrayLike) -> NDArray[np.float64]:
@@ -42,9 +43,9 @@ def check_start(chain: Chain, q0: ArrayLike) -> NDArray[np.float64]:
     """
     if (
         type(q0) is np.ndarray
-        and q0.dtype == np.float64
+        and q0.dtype is _FLOAT64
         and q0.shape == (chain.n,)
-        and math.isfinite(q0.sum())  # not finite: the checks below say which value
+        and math.isfinite(sum(q0.tolist()))  # not finite: the checks below say which
     ):
         return q0.copy()  # the common start, without the conversions (2 us a solve)
     try:

@@ -81,20 +81,28 @@ static int get_array(PyObject* obj, Py_buffer* view, char kind, Py_ssize_t n, in
   return 0;
 }
 
-/* A seed library's arrays (solvers/jacobian/seeds.py SeedLibrary): positions (3 L,) in
-   the order of x, rotations (9 L,), poses (L n,), and what a radian weighs in its
-   ranking, length >= 0. */
+/* A seed library's arrays (solvers/jacobian/seeds.py SeedLibrary): positions (3 L,),
+   rotations (9 L,), poses (L n,), what a radian weighs in its ranking (length >= 0),
+   and the grid of cubic cells over the positions that orders them: grid (7,) = the
+   corner (x, y, z) of cell (0, 0, 0), the cells' side h > 0 and their counts gx, gy, gz
+   along x, y, z; cells (gx gy gz + 1,) int64: the poses of cell (ix, iy, iz) are
+   cells[c] to cells[c + 1] - 1, c = (iz gy + iy) gx + ix. */
 typedef struct {
-  const mjtNum *positions, *rotations, *poses;
+  const mjtNum *positions, *rotations, *poses, *corner;
+  const int64_t* cells;
   Py_ssize_t size;
-  mjtNum length;
+  mjtNum length, side;
+  int dims[3];
 } Library;
+
+enum { GRID_MAX = 1024 }; /* cells along one axis at most */
 
 /* The library's arrays into *lib, their views into views from *held on (the caller
    releases them, also on failure); rotations and poses are read only where not NULL
    (n: the poses' joints). Returns -1 with a Python error set. */
-static int get_library(PyObject* positions, PyObject* rotations, PyObject* poses, int n,
-                       PyObject* length, Py_buffer* views, int* held, Library* lib) {
+static int get_library(PyObject* positions, PyObject* rotations, PyObject* grid,
+                       PyObject* cells, PyObject* poses, int n, PyObject* length,
+                       Py_buffer* views, int* held, Library* lib) {
   Py_ssize_t len = 0;
   memset(lib, 0, sizeof(*lib));
   if (get_array(positions, &views[*held], 'd', -1, 0, "positions", &len) < 0) return -1;
@@ -104,6 +112,30 @@ static int get_library(PyObject* positions, PyObject* rotations, PyObject* poses
     return -1;
   }
   lib->size = len / 3;
+  if (get_array(grid, &views[*held], 'd', 7, 0, "grid", NULL) < 0) return -1;
+  const mjtNum* g = views[(*held)++].buf;
+  lib->corner = g, lib->side = g[3];
+  Py_ssize_t count = 1;
+  for (int a = 0; a < 3; a++) {
+    mjtNum v = g[4 + a];
+    if (!(v >= 1 && v <= GRID_MAX && v == (int)v)) {
+      PyErr_Format(PyExc_ValueError, "grid's cell counts must be whole numbers in [1, %d]",
+                   GRID_MAX);
+      return -1;
+    }
+    lib->dims[a] = (int)v, count *= (Py_ssize_t)v;
+  }
+  if (!(lib->side > 0.0 && isfinite(lib->side) && isfinite(g[0]) && isfinite(g[1]) &&
+        isfinite(g[2]))) {
+    PyErr_SetString(PyExc_ValueError, "grid's corner and side must be finite, the side > 0");
+    return -1;
+  }
+  if (get_array(cells, &views[*held], 'i', count + 1, 0, "cells", NULL) < 0) return -1;
+  lib->cells = views[(*held)++].buf;
+  if (lib->cells[0] != 0 || lib->cells[count] != lib->size) {
+    PyErr_Format(PyExc_ValueError, "cells must run from 0 to the %zd poses", lib->size);
+    return -1;
+  }
   if (rotations) {
     if (get_array(rotations, &views[*held], 'd', 9 * lib->size, 0, "rotations", NULL) < 0) {
       return -1;
@@ -366,46 +398,78 @@ static int enters(mjtNum c, Py_ssize_t i, const mjtNum* best, const int64_t* out
   return c < best[at] || (c == best[at] && i < out[at]);
 }
 
-/* The k poses nearest a target by the seed library's cost (seed_nearest's doc), their
-   indices into out (k,), their costs into best (k,); returns how many (min(k, size)). */
-static Py_ssize_t rank_nearest(const mjtNum* pos, const mjtNum* rot, const mjtNum* tp,
-                               const mjtNum* tr, mjtNum length, Py_ssize_t size, Py_ssize_t k,
-                               mjtNum* best, int64_t* out) {
-  Py_ssize_t have = 0;
-  if (k > size) k = size;
-  /* the first pose at or right of the target's x; then outward, nearest x first */
-  Py_ssize_t left = 0, right = size;
-  while (left < right) {
-    Py_ssize_t mid = left + (right - left) / 2;
-    if (pos[3 * mid] < tp[0]) left = mid + 1; else right = mid;
+/* Pose i into the k best so far (best/out, have of them) when its cost enters. */
+static void offer(const Library* lib, const mjtNum* tp, const mjtNum* tr, Py_ssize_t i,
+                  Py_ssize_t k, Py_ssize_t* have, mjtNum* best, int64_t* out) {
+  const mjtNum* x = lib->positions + 3 * i;
+  mjtNum dx = x[0] - tp[0], dy = x[1] - tp[1], dz = x[2] - tp[2];
+  mjtNum sq = dx * dx + dy * dy + dz * dz;
+  /* the margin keeps rounding from dropping a pose that would enter */
+  if (*have == k && sq > best[k - 1] * best[k - 1] * (1.0 + 1e-9)) return;
+  mjtNum c = sqrt(sq);
+  if (tr) {
+    const mjtNum* r = lib->rotations + 9 * i;
+    mjtNum dot = 0.0;
+    for (int j = 0; j < 9; j++) dot += r[j] * tr[j];
+    c += lib->length * (1.0 - (dot - 1.0) * 0.5);
   }
-  right = left, left = left - 1;
-  while (k && (left >= 0 || right < size)) {
-    mjtNum gap_l = left >= 0 ? tp[0] - pos[3 * left] : INFINITY;
-    mjtNum gap_r = right < size ? pos[3 * right] - tp[0] : INFINITY;
-    int go_left = gap_l <= gap_r;
-    mjtNum gap = go_left ? gap_l : gap_r;
-    /* the margin keeps rounding from stopping before a pose that would enter */
-    if (have == k && gap > best[k - 1] * (1.0 + 1e-9)) break;
-    Py_ssize_t i = go_left ? left-- : right++;
-    const mjtNum* x = pos + 3 * i;
-    mjtNum dx = x[0] - tp[0], dy = x[1] - tp[1], dz = x[2] - tp[2];
-    mjtNum sq = dx * dx + dy * dy + dz * dz;
-    if (have == k && sq > best[k - 1] * best[k - 1] * (1.0 + 1e-9)) continue;
-    mjtNum c = sqrt(sq);
-    if (rot) {
-      const mjtNum* r = rot + 9 * i;
-      mjtNum dot = 0.0;
-      for (int j = 0; j < 9; j++) dot += r[j] * tr[j];
-      c += length * (1.0 - (dot - 1.0) * 0.5);
+  if (*have == k && !enters(c, i, best, out, k - 1)) return;
+  Py_ssize_t at = *have < k ? (*have)++ : k - 1;
+  while (at > 0 && enters(c, i, best, out, at - 1)) {
+    best[at] = best[at - 1], out[at] = out[at - 1];
+    at--;
+  }
+  best[at] = c, out[at] = i;
+}
+
+/* The k poses nearest a target by the seed library's cost (seed_nearest's doc), their
+   indices into out (k,), their costs into best (k,); returns how many (min(k, size)).
+   The cells are visited in rings outward from the target's cell (the nearest cell when
+   the target lies outside the grid): ring r's cells lie at least (r - 1) side from the
+   target, so the rings stop when that exceeds the k-th cost found, and a cell whose box
+   lies farther than it is skipped (a pose's cost is at least its distance). */
+static Py_ssize_t rank_nearest(const Library* lib, const mjtNum* tp, const mjtNum* tr,
+                               Py_ssize_t k, mjtNum* best, int64_t* out) {
+  Py_ssize_t have = 0;
+  if (k > lib->size) k = lib->size;
+  if (k <= 0) return 0;
+  const mjtNum h = lib->side, *lo = lib->corner;
+  const int *g = lib->dims;
+  int at[3], rings = 0;
+  for (int a = 0; a < 3; a++) {
+    mjtNum f = floor((tp[a] - lo[a]) / h);
+    at[a] = f < 0 ? 0 : f >= g[a] ? g[a] - 1 : (int)f;
+    if (g[a] > rings) rings = g[a];
+  }
+  for (int r = 0; r < rings; r++) {
+    if (have == k && (r - 1) * h - 1e-12 > best[k - 1] * (1.0 + 1e-9)) break;
+    for (int z = at[2] - r; z <= at[2] + r; z++) {
+      if (z < 0 || z >= g[2]) continue;
+      for (int y = at[1] - r; y <= at[1] + r; y++) {
+        if (y < 0 || y >= g[1]) continue;
+        int shell = z == at[2] - r || z == at[2] + r || y == at[1] - r || y == at[1] + r;
+        int step = shell || r == 0 ? 1 : 2 * r; /* inside the ring: its two x ends only */
+        for (int x = at[0] - r; x <= at[0] + r; x += step) {
+          if (x < 0 || x >= g[0]) continue;
+          if (have == k) { /* the cell's box farther than the k-th cost: skipped */
+            const int cell[3] = {x, y, z};
+            mjtNum sq = 0.0;
+            for (int a = 0; a < 3; a++) {
+              mjtNum low = lo[a] + cell[a] * h, high = low + h;
+              mjtNum gap = tp[a] < low ? low - tp[a] : tp[a] > high ? tp[a] - high : 0.0;
+              gap = gap > 1e-12 ? gap - 1e-12 : 0.0;
+              sq += gap * gap;
+            }
+            if (sq > best[k - 1] * best[k - 1] * (1.0 + 1e-9)) continue;
+          }
+          Py_ssize_t c = ((Py_ssize_t)z * g[1] + y) * g[0] + x;
+          Py_ssize_t first = lib->cells[c], last = lib->cells[c + 1];
+          if (first < 0) first = 0; /* a malformed grid ranks wrongly, never reads outside */
+          if (last > lib->size) last = lib->size;
+          for (Py_ssize_t i = first; i < last; i++) offer(lib, tp, tr, i, k, &have, best, out);
+        }
+      }
     }
-    if (have == k && !enters(c, i, best, out, k - 1)) continue;
-    Py_ssize_t at = have < k ? have++ : k - 1;
-    while (at > 0 && enters(c, i, best, out, at - 1)) {
-      best[at] = best[at - 1], out[at] = out[at - 1];
-      at--;
-    }
-    best[at] = c, out[at] = i;
   }
   return have;
 }
@@ -440,10 +504,8 @@ static Outcome restart(const mjModel* m, mjData* d, const Problem* p, const Rest
     const mjtNum* start = NULL;
     if (k % 2 == 0 && r->lib.positions && used < r->seeds) {
       if (found < 0) {
-        const Library* lib = &r->lib;
-        found = rank_nearest(lib->positions, p->target_quat ? lib->rotations : NULL,
-                             p->target_pos, p->target_quat ? r->target_rot : NULL, lib->length,
-                             lib->size, r->seeds, near_cost, near);
+        found = rank_nearest(&r->lib, p->target_pos, p->target_quat ? r->target_rot : NULL,
+                             r->seeds, near_cost, near);
       }
       if (used < found) start = r->lib.poses + (size_t)n * near[used++];
     }
@@ -730,7 +792,7 @@ static PyObject* Kernel_solve(Kernel* self, PyObject* const* args, Py_ssize_t na
   Problem p;
   Restarts r;
   memset(&r, 0, sizeof(r));
-  Py_buffer views[16];
+  Py_buffer views[20];
   int held = 0;
   const mjtNum* qpos;
   mjtNum* q0;
@@ -761,13 +823,14 @@ static PyObject* Kernel_solve(Kernel* self, PyObject* const* args, Py_ssize_t na
   mjtNum* info = views[held++].buf;
   PyObject* lib = args[12];
   if (lib != Py_None && seeds > 0) {
-    if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 4) {
-      PyErr_SetString(PyExc_TypeError,
-                      "library must be None or (positions, rotations, poses, length)");
+    if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 6) {
+      PyErr_SetString(PyExc_TypeError, "library must be None or (positions, rotations, "
+                                       "grid, cells, poses, length)");
       goto done;
     }
     if (get_library(PyTuple_GET_ITEM(lib, 0), PyTuple_GET_ITEM(lib, 1),
-                    PyTuple_GET_ITEM(lib, 2), p.n, PyTuple_GET_ITEM(lib, 3), views, &held,
+                    PyTuple_GET_ITEM(lib, 2), PyTuple_GET_ITEM(lib, 3),
+                    PyTuple_GET_ITEM(lib, 4), p.n, PyTuple_GET_ITEM(lib, 5), views, &held,
                     &r.lib) < 0) {
       goto done;
     }
@@ -808,42 +871,46 @@ static PyObject* Kernel_get_nv(Kernel* self, void* closure) {
 /* ------------------------------------------------------------------ seed ranking */
 
 PyDoc_STRVAR(seed_nearest_doc,
-"seed_nearest(positions, rotations, target_pos, target_rot, length, out) -> int\n"
+"seed_nearest(positions, rotations, grid, cells, target_pos, target_rot, length, out)\n"
+"    -> int\n"
 "\n"
 "The seed library's poses nearest a target (solvers/jacobian/seeds.py): their indices\n"
 "into out (k,) int64, writable, nearest first, by the cost |positions[i] - target_pos|\n"
 "+ length (1 - cos), cos = (trace(target_rot' R_i) - 1) / 2 from the flattened\n"
 "rotations (9 per pose) for a pose target (target_rot (9,)), the distance alone when\n"
 "target_rot is None; equal costs in index order. Returns how many were written\n"
-"(min(k, size)). positions (3 size,) sorted by x (unsorted ones give a wrong ranking,\n"
-"never a bad access), rotations (9 size,) float64,\n"
-"length >= 0. The poses are visited outward from the target's x, nearest x first,\n"
-"until the x gap alone exceeds the k-th cost found (cost >= distance >= x gap); a pose\n"
-"farther than that cost is not measured further. The same ranking as a full sort, in\n"
-"a fixed order: the same on every machine.");
+"(min(k, size)). positions (3 size,) ordered by the cells of grid (7,): the corner of\n"
+"cell (0, 0, 0), the cells' side and their counts along x, y, z; cells (count + 1,)\n"
+"int64, the first pose of each cell and the end (poses outside their cell give a\n"
+"wrong ranking, never a bad access); rotations (9 size,) float64, length >= 0. The\n"
+"cells are visited in rings outward from the target's, until the ring's distance alone\n"
+"exceeds the k-th cost found (cost >= distance); a cell farther than that cost is\n"
+"skipped. The same ranking as a full sort, in a fixed order: the same on every\n"
+"machine.");
 
 static PyObject* seed_nearest(PyObject* module, PyObject* const* args, Py_ssize_t nargs) {
-  if (nargs != 6) {
-    PyErr_Format(PyExc_TypeError, "seed_nearest() takes 6 arguments, got %zd", nargs);
+  if (nargs != 8) {
+    PyErr_Format(PyExc_TypeError, "seed_nearest() takes 8 arguments, got %zd", nargs);
     return NULL;
   }
-  Py_buffer views[5];
+  Py_buffer views[7];
   int held = 0;
   PyObject* result = NULL;
   Py_ssize_t k = 0;
   Library lib;
-  int pose = args[3] != Py_None;
-  if (get_library(args[0], pose ? args[1] : NULL, NULL, 0, args[4], views, &held, &lib) < 0) {
+  int pose = args[5] != Py_None;
+  if (get_library(args[0], pose ? args[1] : NULL, args[2], args[3], NULL, 0, args[6], views,
+                  &held, &lib) < 0) {
     goto done;
   }
-  if (get_array(args[2], &views[held], 'd', 3, 0, "target_pos", NULL) < 0) goto done;
+  if (get_array(args[4], &views[held], 'd', 3, 0, "target_pos", NULL) < 0) goto done;
   const mjtNum* tp = views[held++].buf;
   const mjtNum* tr = NULL;
   if (pose) {
-    if (get_array(args[3], &views[held], 'd', 9, 0, "target_rot", NULL) < 0) goto done;
+    if (get_array(args[5], &views[held], 'd', 9, 0, "target_rot", NULL) < 0) goto done;
     tr = views[held++].buf;
   }
-  if (get_array(args[5], &views[held], 'i', -1, 1, "out", &k) < 0) goto done;
+  if (get_array(args[7], &views[held], 'i', -1, 1, "out", &k) < 0) goto done;
   int64_t* out = views[held++].buf;
   if (k > lib.size) k = lib.size;
   mjtNum* best = PyMem_Malloc(sizeof(mjtNum) * (size_t)(k ? k : 1));
@@ -853,7 +920,7 @@ static PyObject* seed_nearest(PyObject* module, PyObject* const* args, Py_ssize_
   }
   Py_ssize_t have = 0;
   Py_BEGIN_ALLOW_THREADS
-  have = rank_nearest(lib.positions, lib.rotations, tp, tr, lib.length, lib.size, k, best, out);
+  have = rank_nearest(&lib, tp, tr, k, best, out);
   Py_END_ALLOW_THREADS
   PyMem_Free(best);
   result = PyLong_FromSsize_t(have);

@@ -43,7 +43,15 @@ class Kernel:
         options: tuple[float, float, float, float, float, int, int],
         q0: NDArray[np.float64],
         rotations: NDArray[np.float64],
-        library: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float] | None,
+        library: tuple[
+            NDArray[np.float64],
+            NDArray[np.float64],
+            NDArray[np.float64],
+            NDArray[np.int64],
+            NDArray[np.float64],
+            float,
+        ]
+        | None,
         library_seeds: int,
         randoms: NDArray[np.float64],
         restarts: int,
@@ -56,6 +64,8 @@ class Kernel:
 def seed_nearest(
     positions: NDArray[np.float64],
     rotations: NDArray[np.float64],
+    grid: NDArray[np.float64],
+    cells: NDArray[np.int64],
     target_pos: NDArray[np.float64],
     target_rot: NDArray[np.float64] | None,
     length: float,
