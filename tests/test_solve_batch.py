@@ -44,6 +44,28 @@ def test_batch_answers_are_the_single_calls(g1_arm, workers):
 
 
 @pytest.mark.parametrize("workers", [1, 2])
+def test_auto_retries_the_pose_targets_lm_missed_in_the_compiled_loop(g1_arm, workers):
+    """``auto``'s retry of a pose target ``lm``'s 21 starts missed runs in the compiled
+    loop too (:attr:`Auto.retry`): each result equals the one call's, the retried ones
+    converged with ``details == {"auto": ("lm", "lm")}``; a position target out of reach
+    still goes to the one call (its second opinion is another solver's)."""
+    q0 = g1_arm.q_home
+    targets = fk_poses(g1_arm, 3000, seed=11)
+    first = solve_batch(g1_arm, targets, "lm", q0=q0, workers=2)
+    missed = [t for t, r in zip(targets, first, strict=True) if not r.converged]
+    assert len(missed) >= 2  # about 1 in 1,000 of G1's targets from home
+    mixed = [*targets[:3], *missed[:3], Target([3.0, 0.0, 1.0]), *targets[3:6]]
+    batch = solve_batch(g1_arm, mixed, "auto", q0=q0, workers=workers)
+    retried = 0
+    for t, got in zip(mixed, batch, strict=True):
+        want = solve(g1_arm, t, "auto", q0=q0)
+        assert got == want and got.details == want.details
+        retried += got.details["auto"] == ("lm", "lm") and got.converged
+    assert retried == len(missed[:3])
+    assert not batch[6].converged  # out of reach
+
+
+@pytest.mark.parametrize("workers", [1, 2])
 def test_the_compiled_loop_gives_the_single_calls_answers(workers):
     """``lm`` on Baxter's left arm (half its targets from home need restarts: the
     library's poses and the random ones, in the compiled loop), pose and position

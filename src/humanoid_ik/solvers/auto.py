@@ -102,6 +102,12 @@ class Auto(Solver):
         """Why :meth:`choice` is that solver, in a few words."""
         return self._choose(chain, pose)[1]
 
+    @property
+    def retry(self) -> LM:
+        """The ``lm`` that tries a pose target again after ``lm``'s miss
+        (:data:`RETRY_RESTARTS` starts of another seed)."""
+        return self._lm_retry
+
     def second_opinion(self, chain: Chain) -> Solver | None:
         """The solver that tries a position target ``lm`` missed on ``chain``:
         ``closed_form`` where it applies, else ``None``."""
