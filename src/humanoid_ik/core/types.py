@@ -299,7 +299,9 @@ class IKResult:
         they are immutable, ``q`` read-only), without re-checking them."""
         new = object.__new__(IKResult)
         new.__dict__.update(self.__dict__)
-        object.__setattr__(new, "details", MappingProxyType({**self.details, **extra}))
+        # extra is this call's own dict: taken as it is where there is nothing to merge
+        details = {**self.details, **extra} if self.details else extra
+        new.__dict__["details"] = MappingProxyType(details)
         return new
 
     def to_dict(self, joint_names: list[str] | None = None) -> dict[str, Any]:

@@ -30,7 +30,7 @@ _MADE_MAX = 64
 def solver_for(name: str, options: dict[str, Any]) -> Solver:
     """The solver object :func:`solve` uses for ``name`` and ``options``: made once,
     then reused (options that cannot be hashed, such as lists, make a new one)."""
-    key = (name, tuple(sorted(options.items())))
+    key = (name, tuple(sorted(options.items())) if options else ())
     try:
         found = _MADE.get(key)
     except TypeError:  # an unhashable option value
