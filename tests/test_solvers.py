@@ -507,3 +507,98 @@ def test_a_start_that_is_not_real_numbers_is_refused(solver_name, q0, got):
     huge = np.full(n, 1e308)
     solve(chain, target, solver_name, q0=huge)
     np.testing.assert_array_equal(huge, np.full(n, 1e308))
+
+
+_MOCAP_ARM = """<mujoco><compiler angle="radian"/><worldbody>
+<body name="base" mocap="true" pos="0 0 0.5">
+  <body name="l1"><joint name="j1" axis="0 0 1" range="-3 3"/><geom size=".05"/>
+    <body name="l2" pos="0 0 0.1"><joint name="j2" axis="0 1 0" range="-3 3"/><geom size=".05"/>
+      <body name="l3" pos="0.3 0 0"><joint name="j3" axis="0 1 0" range="-3 3"/><geom size=".05"/>
+        <site name="tip" pos="0.3 0 0"/></body></body></body></body>
+</worldbody></mujoco>"""
+
+
+def test_every_solver_follows_a_moved_mocap_base():
+    """An arm below a mocap body that the caller's MjData moved 1 m: each solver that
+    applies to its position targets reaches a target near the moved base, its error is
+    MuJoCo's FK of the answer with the moved base, and a target reachable only from
+    the model's own base pose is not reported converged (``lm``'s compiled loop and the
+    ``mink`` QP's own MjData once solved on the model's mocap pose: ``lm`` reported such a
+    target converged, 1 m off). ``closed_form`` and ``subproblem`` do not apply to 3
+    hinges; their arms' base is read from the robot state (``tests/test_real_arms.py``)."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_string(_MOCAP_ARM)
+    d = mujoco.MjData(m)
+    d.mocap_pos[0] = [1.0, 0.0, 0.5]
+    mujoco.mj_forward(m, d)
+    checked = []
+    for name in sorted(SOLVERS):
+        chain = Chain(m, "tip")
+        solver = make_solver(name)
+        if not solver.reaches or solver.applicable(chain) is not None:
+            continue
+        for target, reachable in (([1.3, 0.2, 0.7], True), ([0.3, 0.2, 0.7], False)):
+            res = solver.solve(chain, target, data=d)
+            truth = mujoco.MjData(m)
+            truth.qpos[:] = d.qpos
+            truth.mocap_pos[:] = d.mocap_pos
+            truth.qpos[chain.qpos_adr] = res.q
+            mujoco.mj_kinematics(m, truth)
+            error = float(np.linalg.norm(truth.site_xpos[0] - target))
+            assert res.position_error == pytest.approx(error, abs=1e-9), name
+            if reachable:
+                assert res.converged, name
+            if not reachable:
+                assert not res.converged and error > 0.1, name
+        checked.append(name)
+    assert checked == [
+        "auto", "ccd", "dls", "fabrik", "jacobian_transpose", "lm", "mink", "pseudoinverse",
+        "two_link",
+    ]  # fmt: skip
+
+
+_MOCAP_SRS_ARM = """<mujoco><compiler angle="radian"/><worldbody>
+<body name="base" mocap="true" pos="0 0 0.8">
+  <body name="s1"><joint name="s1" axis="0 0 1" range="-2.5 2.5"/><geom size=".04"/>
+  <body name="s2"><joint name="s2" axis="0 1 0" range="-2.5 2.5"/><geom size=".04"/>
+  <body name="s3"><joint name="s3" axis="1 0 0" range="-2.5 2.5"/><geom size=".04"/>
+  <body name="upper" pos="0.3 0 0"><joint name="e" axis="0 1 0" range="-2.5 0.05"/>
+    <geom size=".04"/>
+  <body name="w1" pos="0.3 0 0"><joint name="w1" axis="1 0 0" range="-2.5 2.5"/>
+    <geom size=".03"/>
+  <body name="w2"><joint name="w2" axis="0 1 0" range="-2.5 2.5"/><geom size=".03"/>
+  <body name="w3"><joint name="w3" axis="0 0 1" range="-2.5 2.5"/><geom size=".03"/>
+    <site name="hand" pos="0.1 0 0"/>
+  </body></body></body></body></body></body></body>
+</body></worldbody></mujoco>"""
+
+
+def test_the_exact_solvers_follow_a_moved_mocap_base():
+    """A 7-hinge arm (spherical shoulder, elbow, spherical wrist) below a mocap body that
+    the caller's MjData moved and turned: ``closed_form`` (its arm geometry), ``subproblem``
+    (its search), ``lm``, ``auto`` and ``mink`` reach a pose target set at the moved base,
+    errors MuJoCo's FK of the answer with the moved base (``Chain.base_state`` holds the
+    mocap pose: the exact solvers' caches read the base again when it moves)."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_string(_MOCAP_SRS_ARM)
+    d = mujoco.MjData(m)
+    q_goal = np.array([0.4, -0.3, 0.5, -1.2, 0.3, 0.4, -0.2])
+    chain = Chain(m, "hand")  # one robot state: its caches built at the first base
+    for base, turn in (([0.0, 0.0, 0.8], [1.0, 0, 0, 0]), ([1.0, -0.5, 0.6], [0.9, 0, 0, 0.43])):
+        d.mocap_pos[0], d.mocap_quat[0] = base, turn
+        d.qpos[:] = q_goal
+        mujoco.mj_forward(m, d)
+        target = Target(d.site_xpos[0].copy(), mat_to_quat(d.site_xmat[0].reshape(3, 3).copy()))
+        d.qpos[:] = 0.0
+        mujoco.mj_forward(m, d)
+        for name in ("closed_form", "subproblem", "lm", "auto", "mink"):
+            res = make_solver(name).solve(chain, target, data=d)
+            truth = mujoco.MjData(m)
+            truth.mocap_pos[:], truth.mocap_quat[:] = d.mocap_pos, d.mocap_quat
+            truth.qpos[chain.qpos_adr] = res.q
+            mujoco.mj_kinematics(m, truth)
+            error = float(np.linalg.norm(truth.site_xpos[0] - target.position))
+            assert res.converged and error < 1e-4, (name, base, error)
+            assert res.position_error == pytest.approx(error, abs=1e-9), name

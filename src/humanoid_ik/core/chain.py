@@ -157,6 +157,10 @@ class Chain:
         # a view of the robot's buffer (never reallocated), so made once
         self._columns = None if self.dof_slice is None else self.robot.jac[:, self.dof_slice]
         self._base_qpos = self._qpos_off_chain()
+        top = ee_body  # the path's topmost body: the only one that can be a mocap body
+        while int(m.body_parentid[top]) > 0:
+            top = int(m.body_parentid[top])
+        self._base_mocap = int(m.body_mocapid[top])
         self._limits_version = -1
         self._read_ranges()
 
@@ -252,10 +256,16 @@ class Chain:
         return np.array(idx, dtype=np.int64)
 
     def base_state(self) -> list[float] | None:
-        """The scratch ``qpos`` of the path's joints outside the chain, which move the
-        chain's base (``None`` when nothing does): what a cache of world-frame geometry
-        compares to know whether it is still current."""
-        return None if self._base_qpos is None else self.data.qpos[self._base_qpos].tolist()
+        """The scratch ``qpos`` of the path's joints outside the chain and the pose of a
+        mocap body the path hangs from, which move the chain's base (``None`` when
+        nothing does): what a cache of world-frame geometry compares to know whether it
+        is still current."""
+        d = self.data
+        state = None if self._base_qpos is None else d.qpos[self._base_qpos].tolist()
+        k = self._base_mocap
+        if k < 0:
+            return state
+        return [*(state or ()), *d.mocap_pos[k].tolist(), *d.mocap_quat[k].tolist()]
 
     @classmethod
     def from_xml_string(

@@ -860,6 +860,42 @@ done:
   return result;
 }
 
+PyDoc_STRVAR(set_mocap_doc,
+"set_mocap(mocap_pos, mocap_quat) -> None\n"
+"\n"
+"The mocap bodies' poses of the kernel's data: mocap_pos (3 nmocap,) and mocap_quat\n"
+"(4 nmocap,) float64, as the robot state's data holds them (a chain below a mocap body\n"
+"moves with it; descend and solve copy qpos only).");
+
+static PyObject* Kernel_set_mocap(Kernel* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 2) {
+    PyErr_Format(PyExc_TypeError, "set_mocap() takes 2 arguments, got %zd", nargs);
+    return NULL;
+  }
+  if (!self->m) {
+    PyErr_SetString(PyExc_RuntimeError, "Kernel is not initialised");
+    return NULL;
+  }
+  if (self->busy) {
+    PyErr_SetString(PyExc_RuntimeError, "this lm kernel is in use by another thread");
+    return NULL;
+  }
+  Py_buffer views[2];
+  int held = 0;
+  PyObject* result = NULL;
+  Py_ssize_t k = self->m->nmocap;
+  if (get_array(args[0], &views[held], 'd', 3 * k, 0, "mocap_pos", NULL) < 0) goto done;
+  held++;
+  if (get_array(args[1], &views[held], 'd', 4 * k, 0, "mocap_quat", NULL) < 0) goto done;
+  held++;
+  memcpy(self->d->mocap_pos, views[0].buf, sizeof(mjtNum) * 3 * (size_t)k);
+  memcpy(self->d->mocap_quat, views[1].buf, sizeof(mjtNum) * 4 * (size_t)k);
+  result = Py_NewRef(Py_None);
+done:
+  for (int j = 0; j < held; j++) PyBuffer_Release(&views[j]);
+  return result;
+}
+
 static PyObject* Kernel_get_nq(Kernel* self, void* closure) {
   return PyLong_FromLongLong(self->m ? (long long)self->m->nq : 0);
 }
@@ -938,6 +974,7 @@ static PyMethodDef module_methods[] = {
 static PyMethodDef Kernel_methods[] = {
     {"descend", (PyCFunction)(void (*)(void))Kernel_descend, METH_FASTCALL, descend_doc},
     {"solve", (PyCFunction)(void (*)(void))Kernel_solve, METH_FASTCALL, solve_doc},
+    {"set_mocap", (PyCFunction)(void (*)(void))Kernel_set_mocap, METH_FASTCALL, set_mocap_doc},
     {NULL, NULL, 0, NULL},
 };
 

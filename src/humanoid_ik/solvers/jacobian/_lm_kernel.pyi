@@ -29,6 +29,9 @@ class Kernel:
         q: NDArray[np.float64],
         /,
     ) -> tuple[bool, int, float, float, float]: ...
+    def set_mocap(
+        self, mocap_pos: NDArray[np.float64], mocap_quat: NDArray[np.float64], /
+    ) -> None: ...
     def solve(
         self,
         qpos: NDArray[np.float64],

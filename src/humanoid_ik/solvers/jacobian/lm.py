@@ -145,9 +145,16 @@ def kernel(chain: Chain, index: int = 0) -> _lm_kernel.Kernel:
     """The compiled loop of ``chain``'s robot state: built from a copy of the model on
     first use, kept in the robot's workspace (dropped when the model changes). ``index``
     1, 2, ...: another kernel of the same robot state, for another thread of a batch
-    (:func:`~humanoid_ik.solvers.batch.solve_batch`; a kernel serves one thread)."""
+    (:func:`~humanoid_ik.solvers.batch.solve_batch`; a kernel serves one thread).
+
+    A model with mocap bodies gets the robot state's mocap poses copied into the kernel
+    on every call (a chain below a moved mocap body: its FK moves with it; the kernel's
+    calls copy ``qpos`` only)."""
     key = KERNEL_KEY if index == 0 else (*KERNEL_KEY, index)
-    return chain.robot.workspace(key, lambda: _build_kernel(chain.model))
+    k = chain.robot.workspace(key, lambda: _build_kernel(chain.model))
+    if chain.model.nmocap:
+        k.set_mocap(chain.data.mocap_pos.reshape(-1), chain.data.mocap_quat.reshape(-1))
+    return k
 
 
 class LM(Solver):

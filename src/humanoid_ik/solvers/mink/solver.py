@@ -124,6 +124,7 @@ class MinkSolver(Solver):
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
         ik = self.upper_body(chain)
+        ik.set_mocap(chain.data)
         qpos = chain.data.qpos.copy()
         key = {chain.ee_name: target}
         best, iterations, best_why = Best(q0), 0, ""
@@ -237,6 +238,7 @@ class MinkSolver(Solver):
 
     def _solve_effectors(self, goals: Sequence[EffectorGoal]) -> list[IKResult]:
         ik = self.upper_body_for(goals)
+        ik.set_mocap(goals[0].chain.data)
         qpos = goals[0].chain.data.qpos.copy()
         targets: dict[str, Target | NDArray[np.float64]] = {}
         for g in goals:

@@ -372,8 +372,18 @@ class UpperBodyIK:
         self.configuration.update(q.copy())
 
     def load(self, data: mujoco.MjData) -> None:
-        """Start from the caller's ``qpos`` (every joint); ``data`` is only read."""
+        """Start from the caller's ``qpos`` (every joint) and mocap poses; ``data`` is
+        only read."""
+        self.set_mocap(data)
         self.set_q(data.qpos)
+
+    def set_mocap(self, data: mujoco.MjData) -> None:
+        """Take the mocap bodies' poses of ``data`` (a chain below a mocap body moves
+        with it; :meth:`set_q` sets ``qpos`` only), from the next :meth:`set_q` on."""
+        if self.model.nmocap:
+            own = self.configuration.data
+            own.mocap_pos[:] = data.mocap_pos
+            own.mocap_quat[:] = data.mocap_quat
 
     def apply(self, data: mujoco.MjData) -> None:
         """Write the chains' joints into the caller's ``data`` and run ``mj_forward``."""
