@@ -7,7 +7,7 @@ from the arm's home pose by ``subproblem`` (its first or last joint searched) an
 both alike); CPU time per solve (``time.process_time``), median and p95, the ratio of
 the medians, the successes, and how many values of the held joint the search tried.
 
-    .venv/bin/python benchmarks/searched.py [--n 300] [--arms panda,talos,romeo,icub]
+    .venv/bin/python benchmarks/searched.py [--n 300] [--arms panda,talos,romeo,icub,pr2,tiago_dual]
 """
 
 from __future__ import annotations
@@ -22,7 +22,14 @@ from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.core.types import Target
 from humanoid_ik.solvers.registry import make_solver
 
-ARMS = {"panda": "arm", "talos": "left_arm", "romeo": "left_arm", "icub": "left_arm"}
+ARMS = {
+    "panda": "arm",
+    "talos": "left_arm",
+    "romeo": "left_arm",
+    "icub": "left_arm",
+    "pr2": "left_arm",
+    "tiago_dual": "left_arm",
+}
 """``tests/robots.py`` name -> the limb solved."""
 
 

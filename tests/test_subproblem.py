@@ -448,7 +448,7 @@ def test_seven_hinges_the_search_finds_an_answer_in_the_ranges(kind):
 def test_seven_hinge_real_arms_by_search_and_auto_keeps_lm(name):
     """Panda (its last joint searched) and Talos's left arm (its first): exact answers
     inside the ranges for nearly every in-range target from home; ``auto`` stays with
-    ``lm`` there (the search measured no faster)."""
+    ``lm`` there (the search measured no faster on most arms)."""
     chain = searched_real(name)
     family = subproblem_cache(chain).family
     assert family is not None and family.locked == (6 if name == "panda" else 0)

@@ -14,7 +14,8 @@ The choice depends on the chain and the target only (measured on real arms in
   CPU or below with a p95 a quarter of ``lm``'s (``benchmarks/peers.py``,
   ``docs/subproblem.md``); else ``lm``, also on a 7-hinge chain ``subproblem`` solves
   by searching its first or last joint (Panda, Talos's arm: the search's CPU median
-  measured 1.04 times ``lm``'s on Panda and 1.21 on Talos, ``benchmarks/searched.py``);
+  measured 0.90-1.26 times ``lm``'s on Panda, PR2, Talos and TIAGo,
+  ``benchmarks/searched.py``: faster on two of them, no rule);
 - a position target: ``two_link`` where it places the end frame wherever the chain can:
   shoulder axes that meet (or a planar shoulder), an elbow, and nothing after the elbow
   that moves the end frame (no wrist, as on a 4-joint H1-like arm, or an end frame on
@@ -166,7 +167,8 @@ def _choose(chain: Chain, pose: bool) -> tuple[str, str]:
             return "subproblem", f"6 hinges, {family.name}: exact"
         if family is not None:
             return "lm", (
-                f"7 hinges, subproblem's search ({family.name}) measured no faster than lm"
+                f"7 hinges, subproblem's search ({family.name}) measured no faster than lm "
+                "on most arms"
             )
         return "lm", "no exact solver applies to pose targets"
     if limb.reason is None and limb.held is None:
