@@ -787,3 +787,42 @@ def test_seed_ranking_benchmark_checks_every_ranking():
     for row in rows:
         assert row.split()[1] == "4000" and "CPU median" in row and " us, p95 " in row
         assert row.endswith("0 of 6 rankings unlike a full sort")
+
+
+def test_the_compiled_restarts_follow_the_documented_starts():
+    """``lm``'s restarts run in C (``Kernel.restart``); a loop of ``descend`` over
+    ``LM.starts`` (``seeds.restart_poses``: the library's nearest poses alternating with
+    random ones) with the best pose by ``iterate.pose_cost`` gives the same answers, bit
+    for bit: on Baxter's left arm from home (most pose targets restart) and on position
+    targets, including two out of reach (every start runs)."""
+    from humanoid_ik import load_model
+    from humanoid_ik.core.limbs import limb_chain
+    from humanoid_ik.core.robot import Robot
+    from humanoid_ik.solvers.iterate import Best, pose_cost
+    from tests.chains import fk_poses
+    from tests.robots import robot_file
+
+    arm = limb_chain(Robot(load_model(robot_file("baxter"))), "left_arm")
+    solver = make_solver("lm")
+    targets = fk_poses(arm, 24, seed=3)
+    targets += [Target(t.position) for t in targets[:6]]
+    targets += [Target([3.0, 0.0, 1.0]), Target([0.0, 3.0, 1.0], targets[0].quat)]
+    q0, k, restarted, missed = arm.q_home, kernel(arm), 0, 0
+    for target in targets:
+        got = solver.solve(arm, target, q0)
+        best, iterations, want, used = Best(q0), 0, None, 0
+        for q in solver.starts(arm, q0.copy(), target):
+            ok, its, _c, ep, er = k.descend(
+                arm.data.qpos, arm.qpos_adr, arm.dof_adr, arm.ee_kind == "site", arm.ee_id,
+                arm.lower, arm.upper, target.position, target.quat, solver.kernel_options(), q,
+            )  # fmt: skip
+            iterations, used = iterations + its, used + 1
+            if ok:
+                want = q
+                break
+            best.offer(q, pose_cost(ep, er))
+        np.testing.assert_array_equal(got.q, best.q if want is None else want)
+        assert got.iterations == iterations and got.converged == (want is not None)
+        restarted += used > 1
+        missed += want is None
+    assert restarted >= 10 and missed == 2

@@ -860,6 +860,85 @@ done:
   return result;
 }
 
+PyDoc_STRVAR(restart_doc,
+"restart(qpos, qpos_adr, dof_adr, site, ee_id, lower, upper, target_pos, target_quat,\n"
+"        options, q, target_rot, library, library_seeds, randoms, restarts, best_cost)\n"
+"    -> (converged, iterations, cost, position error, orientation error)\n"
+"\n"
+"lm's restarts of one target after its first start did not converge, as solve runs\n"
+"them (the same starts in the same order: the library's library_seeds poses nearest\n"
+"the target at the even restarts while they last, else the rows of randoms in turn):\n"
+"the first 11 arguments as for descend, q (n,) the first start's best pose (written:\n"
+"the converged pose, else the best over all starts, the first on a tie) and best_cost\n"
+"its iterate.pose_cost (inf: none); target_rot (9,) or None as target_quat;\n"
+"library None or (positions, rotations, grid, cells, poses, length). iterations counts\n"
+"the restarts' only. The loop runs without the GIL.");
+
+static PyObject* Kernel_restart(Kernel* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 17) {
+    PyErr_Format(PyExc_TypeError, "restart() takes 17 arguments, got %zd", nargs);
+    return NULL;
+  }
+  Problem p;
+  Restarts r;
+  memset(&r, 0, sizeof(r));
+  Py_buffer views[16];
+  int held = 0;
+  const mjtNum* qpos;
+  mjtNum* q;
+  PyObject* result = NULL;
+  long seeds = PyLong_AsLong(args[13]), restarts = PyLong_AsLong(args[15]);
+  if ((seeds == -1 || restarts == -1) && PyErr_Occurred()) return NULL;
+  if (seeds < 0 || seeds > SEEDS_MAX || restarts < 0 || restarts > SEEDS_MAX) {
+    PyErr_Format(PyExc_ValueError, "library_seeds and restarts must be in [0, %d], got %ld "
+                 "and %ld", SEEDS_MAX, seeds, restarts);
+    return NULL;
+  }
+  r.best_cost = PyFloat_AsDouble(args[16]);
+  if (r.best_cost == -1.0 && PyErr_Occurred()) return NULL;
+  size_t extra = sizeof(mjtNum) * (2 * (size_t)(seeds ? seeds : 1) + 2) + 64;
+  if (parse_problem(self, args, &p, views, &held, &qpos, &q, extra, NULL) < 0) goto done;
+  r.restarts = (int)restarts;
+  if (p.target_quat) {
+    if (get_array(args[11], &views[held], 'd', 9, 0, "target_rot", NULL) < 0) goto done;
+    r.target_rot = views[held++].buf;
+  }
+  if (get_array(args[14], &views[held], 'd', (Py_ssize_t)restarts * p.n, 0, "randoms", NULL) <
+      0) {
+    goto done;
+  }
+  r.randoms = views[held++].buf;
+  PyObject* lib = args[12];
+  if (lib != Py_None && seeds > 0) {
+    if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 6) {
+      PyErr_SetString(PyExc_TypeError, "library must be None or (positions, rotations, "
+                                       "grid, cells, poses, length)");
+      goto done;
+    }
+    if (get_library(PyTuple_GET_ITEM(lib, 0), PyTuple_GET_ITEM(lib, 1),
+                    PyTuple_GET_ITEM(lib, 2), PyTuple_GET_ITEM(lib, 3),
+                    PyTuple_GET_ITEM(lib, 4), p.n, PyTuple_GET_ITEM(lib, 5), views, &held,
+                    &r.lib) < 0) {
+      goto done;
+    }
+    r.seeds = seeds < r.lib.size ? seeds : r.lib.size;
+  }
+  const mjModel* m = self->m;
+  mjData* d = self->d;
+  Outcome out;
+  self->busy = 1;
+  Py_BEGIN_ALLOW_THREADS
+  memcpy(d->qpos, qpos, sizeof(mjtNum) * (size_t)m->nq);
+  out = restart(m, d, &p, &r, q);
+  Py_END_ALLOW_THREADS
+  self->busy = 0;
+  result = Py_BuildValue("(Oiddd)", out.converged ? Py_True : Py_False, out.iterations,
+                         (double)out.cost, (double)out.ep, (double)out.er);
+done:
+  for (int k = 0; k < held; k++) PyBuffer_Release(&views[k]);
+  return result;
+}
+
 PyDoc_STRVAR(set_mocap_doc,
 "set_mocap(mocap_pos, mocap_quat) -> None\n"
 "\n"
@@ -975,6 +1054,7 @@ static PyMethodDef Kernel_methods[] = {
     {"descend", (PyCFunction)(void (*)(void))Kernel_descend, METH_FASTCALL, descend_doc},
     {"solve", (PyCFunction)(void (*)(void))Kernel_solve, METH_FASTCALL, solve_doc},
     {"set_mocap", (PyCFunction)(void (*)(void))Kernel_set_mocap, METH_FASTCALL, set_mocap_doc},
+    {"restart", (PyCFunction)(void (*)(void))Kernel_restart, METH_FASTCALL, restart_doc},
     {NULL, NULL, 0, NULL},
 };
 

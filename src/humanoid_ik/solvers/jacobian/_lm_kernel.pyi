@@ -29,6 +29,36 @@ class Kernel:
         q: NDArray[np.float64],
         /,
     ) -> tuple[bool, int, float, float, float]: ...
+    def restart(
+        self,
+        qpos: NDArray[np.float64],
+        qpos_adr: NDArray[np.int64],
+        dof_adr: NDArray[np.int64],
+        site: bool,
+        ee_id: int,
+        lower: NDArray[np.float64],
+        upper: NDArray[np.float64],
+        target_pos: NDArray[np.float64],
+        target_quat: NDArray[np.float64] | None,
+        options: tuple[float, float, float, float, float, int, int],
+        q: NDArray[np.float64],
+        target_rot: NDArray[np.float64] | None,
+        library: tuple[
+            NDArray[np.float64],
+            NDArray[np.float64],
+            NDArray[np.float64],
+            NDArray[np.int64],
+            NDArray[np.float64],
+            float,
+        ]
+        | None,
+        library_seeds: int,
+        randoms: NDArray[np.float64],
+        restarts: int,
+        best_cost: float,
+        /,
+    ) -> tuple[bool, int, float, float, float]:
+        """lm's restarts of one target after its first start (``LM._solve``)."""
     def set_mocap(
         self, mocap_pos: NDArray[np.float64], mocap_quat: NDArray[np.float64], /
     ) -> None: ...

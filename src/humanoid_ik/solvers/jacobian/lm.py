@@ -54,9 +54,10 @@ library's poses nearest the target alternating with seeded random in-range poses
 (:func:`~humanoid_ik.solvers.jacobian.seeds.restart_poses`). The first start is ``q0``,
 the chain's current joints unless given: tracking a moving target warm-starts from
 the previous answer. The restarts and the best pose over them (the lowest
-:func:`~humanoid_ik.solvers.iterate.pose_cost`, as every solver ranks them) are kept
-here, in Python; the answer is written into the robot's scratch data (:meth:`Chain.set_q`), so
-the scratch data is at the returned pose.
+:func:`~humanoid_ik.solvers.iterate.pose_cost`, as every solver ranks them) run in C
+too (``Kernel.restart`` after the first start, ``Kernel.solve`` for a batch: one
+loop, the same answers); the answer is written into the robot's scratch data
+(:meth:`Chain.set_q`), so the scratch data is at the returned pose.
 
 An elbow pole (``Target.pole``) is honoured after convergence, without touching the
 kernel's iteration: :func:`pole_steps` turns the elbow toward the pole's plane in the
@@ -64,8 +65,8 @@ null space of the end-effector task (Gauss-Newton steps that keep the end on tar
 where the arm is redundant; a pose it cannot keep within the tolerances is dropped and
 the converged one returned.
 
-State: the solver object holds its options only; one object may serve several threads
-that each have their own robot state.
+State: the solver object holds its options only (and their tuple for the kernel); one
+object may serve several threads that each have their own robot state.
 """
 
 from __future__ import annotations
@@ -85,7 +86,7 @@ from humanoid_ik.core.rotations import axis_angle_matrix
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.analytic.elbow import POLE_TOL, elbow_frame, pole_angle
 from humanoid_ik.solvers.base import Solver, error_buffers
-from humanoid_ik.solvers.iterate import Best, pose_cost
+from humanoid_ik.solvers.iterate import pose_cost
 from humanoid_ik.solvers.jacobian import _lm_kernel
 from humanoid_ik.solvers.jacobian.loop import OPTION_BOUNDS
 from humanoid_ik.solvers.jacobian.seeds import random_starts, restart_poses, seed_library
@@ -176,7 +177,8 @@ class LM(Solver):
             seed_library(chain)
 
     def starts(self, chain: Chain, q0: NDArray[np.float64], target: Target | None = None):
-        """``q0``, then library poses nearest ``target`` alternating with seeded random ones."""
+        """``q0``, then library poses nearest ``target`` alternating with seeded random
+        ones: the order the compiled restarts follow (``Kernel.restart``)."""
         o = self.options
         return restart_poses(chain, q0, target, o.restarts, o.library_seeds, o.seed)
 
@@ -263,27 +265,38 @@ class LM(Solver):
         return q, info
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:
-        descend = kernel(chain).descend
-        options = self.kernel_options()
+        k = kernel(chain)
+        o, options = self.options, self.kernel_options()
         site = chain.ee_kind == "site"
-        qpos, qadr, dof, eid = chain.data.qpos, chain.qpos_adr, chain.dof_adr, chain.ee_id
-        lower, upper, position, quat = chain.lower, chain.upper, target.position, target.quat
-        best = Best(q0)
-        iterations = 0
-        for q in self.starts(chain, q0, target):
-            # q: the start, overwritten with the converged pose or the start's best pose
-            ok, its, cost, ep, er = descend(
-                qpos, qadr, dof, site, eid, lower, upper, position, quat, options, q
+        problem = (
+            chain.data.qpos, chain.qpos_adr, chain.dof_adr, site, chain.ee_id, chain.lower,
+            chain.upper, target.position, target.quat, options,
+        )  # fmt: skip
+        # q: the start, overwritten with the converged pose or the start's best pose
+        q = q0.copy()
+        ok, iterations, _cost, ep, er = k.descend(*problem, q)
+        if not ok and o.restarts:
+            # the restarts in the compiled loop, as a batch runs them (seeds.restart_poses'
+            # order), from the first start's best pose and cost (solve_one in C)
+            best = pose_cost(ep, er)  # er is 0 for a position target
+            if not best < math.inf:  # a start that overflowed: the best pose is q0
+                q[:], best = q0, math.inf
+            library = seed_library(chain).packed if o.library_seeds else None
+            rot = None if target.rotation is None else target.rotation.reshape(9)
+            randoms = random_starts(chain, o.seed, o.restarts).reshape(-1)
+            ok, more, _cost, ep, er = k.restart(
+                *problem, q, rot, library, o.library_seeds, randoms, o.restarts, best
             )
-            iterations += its
-            if ok:
-                chain.set_q(q)  # the scratch data at the returned pose
-                rot = er if quat is not None else None
-                q.setflags(write=False)  # q is this solve's own array: the result's
-                res = IKResult.unchecked(q, True, iterations, ep, rot, Status.CONVERGED, self.name)
-                return res if target.pole is None else pole_steps(self, chain, target, res)
-            best.offer(q, pose_cost(ep, er))  # er is 0 for a position target
-        return self._result(chain, target, best.q, iterations, message=self.gave_up())
+            iterations += more
+        if ok:
+            chain.set_q(q)  # the scratch data at the returned pose
+            rot_error = er if target.quat is not None else None
+            q.setflags(write=False)  # q is this solve's own array: the result's
+            res = IKResult.unchecked(
+                q, True, iterations, ep, rot_error, Status.CONVERGED, self.name
+            )
+            return res if target.pole is None else pole_steps(self, chain, target, res)
+        return self._result(chain, target, q, iterations, message=self.gave_up())
 
 
 def _unit_normal(v: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64] | None:
