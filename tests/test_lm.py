@@ -826,3 +826,20 @@ def test_the_compiled_restarts_follow_the_documented_starts():
         restarted += used > 1
         missed += want is None
     assert restarted >= 10 and missed == 2
+    # its arguments are checked like solve's
+    problem = (
+        arm.data.qpos, arm.qpos_adr, arm.dof_adr, arm.ee_kind == "site", arm.ee_id, arm.lower,
+        arm.upper,
+        np.zeros(3), None, solver.kernel_options(), q0.copy(), None,
+    )  # fmt: skip
+    randoms = np.zeros(20 * arm.n)
+    with pytest.raises(TypeError, match=r"restart\(\) takes 17 arguments, got 0"):
+        k.restart()
+    with pytest.raises(ValueError, match=r"library_seeds and restarts must be in \[0, 4000\]"):
+        k.restart(*problem, None, -1, randoms, 20, math.inf)
+    with pytest.raises(ValueError, match="randoms must have 140 values"):
+        k.restart(*problem, None, 0, randoms[:7], 20, math.inf)
+    with pytest.raises(TypeError, match="library must be None or"):
+        k.restart(*problem, (1, 2), 8, randoms, 20, math.inf)
+    with pytest.raises(ValueError, match="mocap_pos must have 0 values"):
+        k.set_mocap(np.zeros(3), np.zeros(4))

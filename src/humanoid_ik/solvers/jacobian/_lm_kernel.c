@@ -766,6 +766,46 @@ done:
   return result;
 }
 
+/* library_seeds (args[13]) and restarts (args[15]) of solve and restart, each in
+   [0, SEEDS_MAX]; returns -1 with a Python error set */
+static int restart_counts(PyObject* const* args, long* seeds, long* restarts) {
+  *seeds = PyLong_AsLong(args[13]), *restarts = PyLong_AsLong(args[15]);
+  if ((*seeds == -1 || *restarts == -1) && PyErr_Occurred()) return -1;
+  if (*seeds < 0 || *seeds > SEEDS_MAX || *restarts < 0 || *restarts > SEEDS_MAX) {
+    PyErr_Format(PyExc_ValueError, "library_seeds and restarts must be in [0, %d], got %ld "
+                 "and %ld", SEEDS_MAX, *seeds, *restarts);
+    return -1;
+  }
+  return 0;
+}
+
+/* the restarts' random poses (args[14], restarts n,) and library (args[12], None or
+   the 6-tuple of get_library) of solve and restart into *r, their views into views from
+   *held on; returns -1 with a Python error set */
+static int restart_arrays(PyObject* const* args, int n, long seeds, long restarts, Restarts* r,
+                          Py_buffer* views, int* held) {
+  r->restarts = (int)restarts;
+  if (get_array(args[14], &views[*held], 'd', (Py_ssize_t)restarts * n, 0, "randoms", NULL) <
+      0) {
+    return -1;
+  }
+  r->randoms = views[(*held)++].buf;
+  PyObject* lib = args[12];
+  if (lib == Py_None || seeds == 0) return 0;
+  if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 6) {
+    PyErr_SetString(PyExc_TypeError, "library must be None or (positions, rotations, "
+                                     "grid, cells, poses, length)");
+    return -1;
+  }
+  if (get_library(PyTuple_GET_ITEM(lib, 0), PyTuple_GET_ITEM(lib, 1), PyTuple_GET_ITEM(lib, 2),
+                  PyTuple_GET_ITEM(lib, 3), PyTuple_GET_ITEM(lib, 4), n,
+                  PyTuple_GET_ITEM(lib, 5), views, held, &r->lib) < 0) {
+    return -1;
+  }
+  r->seeds = seeds < r->lib.size ? seeds : r->lib.size;
+  return 0;
+}
+
 PyDoc_STRVAR(solve_doc,
 "solve(qpos, qpos_adr, dof_adr, site, ee_id, lower, upper, positions, quats, options,\n"
 "      q0, rotations, library, library_seeds, randoms, restarts, out_q, out_info) -> None\n"
@@ -778,8 +818,9 @@ PyDoc_STRVAR(solve_doc,
 "best pose over the starts by iterate.pose_cost. The first 11 arguments as for\n"
 "descend, with positions (3 N,) and quats (4 N,) (a NaN row: a position target) for\n"
 "the target and q0 (n,) for q (not changed); rotations (9 N,): each pose target's\n"
-"rotation matrix (for the ranking); library: None or (positions (3 L,) in x order,\n"
-"rotations (9 L,), poses (L n,), length). Writes each answer into out_q (N n,) and\n"
+"rotation matrix (for the ranking); library: None or (positions (3 L,), rotations\n"
+"(9 L,), grid (7,), cells, poses (L n,), length) as seed_nearest takes its first four.\n"
+"Writes each answer into out_q (N n,) and\n"
 "(converged, iterations, position error, orientation error) into out_info (4 N,); a\n"
 "target no start solved gets its best pose and that pose's errors as the kernel\n"
 "measured them. The loop runs without the GIL.");
@@ -798,44 +839,19 @@ static PyObject* Kernel_solve(Kernel* self, PyObject* const* args, Py_ssize_t na
   mjtNum* q0;
   PyObject* result = NULL;
   Py_ssize_t count = 0;
-  long seeds = PyLong_AsLong(args[13]), restarts = PyLong_AsLong(args[15]);
-  if ((seeds == -1 || restarts == -1) && PyErr_Occurred()) return NULL;
-  if (seeds < 0 || seeds > SEEDS_MAX || restarts < 0 || restarts > SEEDS_MAX) {
-    PyErr_Format(PyExc_ValueError, "library_seeds and restarts must be in [0, %d], got %ld "
-                 "and %ld", SEEDS_MAX, seeds, restarts);
-    return NULL;
-  }
+  long seeds, restarts;
+  if (restart_counts(args, &seeds, &restarts) < 0) return NULL;
   size_t nv = self->m ? (size_t)self->m->nv : 0;
   size_t extra = sizeof(mjtNum) * (nv + 2 * (size_t)(seeds ? seeds : 1) + 2) + 64;
   if (parse_problem(self, args, &p, views, &held, &qpos, &q0, extra, &count) < 0) goto done;
   const mjtNum *positions = p.target_pos, *quats = p.target_quat;
-  r.restarts = (int)restarts;
   if (get_array(args[11], &views[held], 'd', 9 * count, 0, "rotations", NULL) < 0) goto done;
   const mjtNum* rotations = views[held++].buf;
-  if (get_array(args[14], &views[held], 'd', (Py_ssize_t)restarts * p.n, 0, "randoms", NULL) <
-      0) {
-    goto done;
-  }
-  r.randoms = views[held++].buf;
   if (get_array(args[16], &views[held], 'd', count * p.n, 1, "out_q", NULL) < 0) goto done;
   mjtNum* out_q = views[held++].buf;
   if (get_array(args[17], &views[held], 'd', 4 * count, 1, "out_info", NULL) < 0) goto done;
   mjtNum* info = views[held++].buf;
-  PyObject* lib = args[12];
-  if (lib != Py_None && seeds > 0) {
-    if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 6) {
-      PyErr_SetString(PyExc_TypeError, "library must be None or (positions, rotations, "
-                                       "grid, cells, poses, length)");
-      goto done;
-    }
-    if (get_library(PyTuple_GET_ITEM(lib, 0), PyTuple_GET_ITEM(lib, 1),
-                    PyTuple_GET_ITEM(lib, 2), PyTuple_GET_ITEM(lib, 3),
-                    PyTuple_GET_ITEM(lib, 4), p.n, PyTuple_GET_ITEM(lib, 5), views, &held,
-                    &r.lib) < 0) {
-      goto done;
-    }
-    r.seeds = seeds < r.lib.size ? seeds : r.lib.size;
-  }
+  if (restart_arrays(args, p.n, seeds, restarts, &r, views, &held) < 0) goto done;
   const mjModel* m = self->m;
   mjData* d = self->d;
   const int n = p.n;
@@ -887,42 +903,17 @@ static PyObject* Kernel_restart(Kernel* self, PyObject* const* args, Py_ssize_t 
   const mjtNum* qpos;
   mjtNum* q;
   PyObject* result = NULL;
-  long seeds = PyLong_AsLong(args[13]), restarts = PyLong_AsLong(args[15]);
-  if ((seeds == -1 || restarts == -1) && PyErr_Occurred()) return NULL;
-  if (seeds < 0 || seeds > SEEDS_MAX || restarts < 0 || restarts > SEEDS_MAX) {
-    PyErr_Format(PyExc_ValueError, "library_seeds and restarts must be in [0, %d], got %ld "
-                 "and %ld", SEEDS_MAX, seeds, restarts);
-    return NULL;
-  }
+  long seeds, restarts;
+  if (restart_counts(args, &seeds, &restarts) < 0) return NULL;
   r.best_cost = PyFloat_AsDouble(args[16]);
   if (r.best_cost == -1.0 && PyErr_Occurred()) return NULL;
   size_t extra = sizeof(mjtNum) * (2 * (size_t)(seeds ? seeds : 1) + 2) + 64;
   if (parse_problem(self, args, &p, views, &held, &qpos, &q, extra, NULL) < 0) goto done;
-  r.restarts = (int)restarts;
   if (p.target_quat) {
     if (get_array(args[11], &views[held], 'd', 9, 0, "target_rot", NULL) < 0) goto done;
     r.target_rot = views[held++].buf;
   }
-  if (get_array(args[14], &views[held], 'd', (Py_ssize_t)restarts * p.n, 0, "randoms", NULL) <
-      0) {
-    goto done;
-  }
-  r.randoms = views[held++].buf;
-  PyObject* lib = args[12];
-  if (lib != Py_None && seeds > 0) {
-    if (!PyTuple_Check(lib) || PyTuple_GET_SIZE(lib) != 6) {
-      PyErr_SetString(PyExc_TypeError, "library must be None or (positions, rotations, "
-                                       "grid, cells, poses, length)");
-      goto done;
-    }
-    if (get_library(PyTuple_GET_ITEM(lib, 0), PyTuple_GET_ITEM(lib, 1),
-                    PyTuple_GET_ITEM(lib, 2), PyTuple_GET_ITEM(lib, 3),
-                    PyTuple_GET_ITEM(lib, 4), p.n, PyTuple_GET_ITEM(lib, 5), views, &held,
-                    &r.lib) < 0) {
-      goto done;
-    }
-    r.seeds = seeds < r.lib.size ? seeds : r.lib.size;
-  }
+  if (restart_arrays(args, p.n, seeds, restarts, &r, views, &held) < 0) goto done;
   const mjModel* m = self->m;
   mjData* d = self->d;
   Outcome out;
