@@ -152,15 +152,11 @@ class Chain:
         contiguous = bool(np.all(np.diff(dofs) == 1))
         # chain columns: a view of the robot's buffer when the dofs are contiguous
         self.dof_slice = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else None
-        """The chain's columns of the robot's Jacobian as a slice, ``None`` when its
-        dofs do not follow each other."""
+        """The chain's columns of the robot's Jacobian as a slice (``None``: not contiguous)."""
         # a view of the robot's buffer (never reallocated), so made once
         self._columns = None if self.dof_slice is None else self.robot.jac[:, self.dof_slice]
         self._base_qpos = self._qpos_off_chain()
-        top = ee_body  # the path's topmost body: the only one that can be a mocap body
-        while int(m.body_parentid[top]) > 0:
-            top = int(m.body_parentid[top])
-        self._base_mocap = int(m.body_mocapid[top])
+        self._base_mocap = int(m.body_mocapid[m.body_rootid[ee_body]])  # -1: no mocap base
         self._limits_version = -1
         self._read_ranges()
 
@@ -257,12 +253,10 @@ class Chain:
 
     def base_state(self) -> list[float] | None:
         """The scratch ``qpos`` of the path's joints outside the chain and the pose of a
-        mocap body the path hangs from, which move the chain's base (``None`` when
-        nothing does): what a cache of world-frame geometry compares to know whether it
-        is still current."""
-        d = self.data
+        mocap body the path hangs from, which move the chain's base (``None``: nothing
+        does): what a cache of world-frame geometry compares to know it is current."""
+        d, k = self.data, self._base_mocap
         state = None if self._base_qpos is None else d.qpos[self._base_qpos].tolist()
-        k = self._base_mocap
         if k < 0:
             return state
         return [*(state or ()), *d.mocap_pos[k].tolist(), *d.mocap_quat[k].tolist()]
@@ -533,8 +527,7 @@ class Chain:
 
     # ----------------------------------------------------------------- limits
     def clip(self, q: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-        """``q`` moved inside the joint ranges: a new array, or ``out`` (float64
-        ``(n,)``, which may be ``q`` itself) overwritten."""
+        """``q`` moved inside the joint ranges: a new array, or ``out`` (may be ``q``) written."""
         # np.minimum/np.maximum: np.clip's wrapper costs more than the clipping here
         low = np.maximum(np.asarray(q, dtype=np.float64), self.lower, out=out)
         return np.minimum(low, self.upper, out=low)
