@@ -1,15 +1,15 @@
 """Pose solves per second with ``solve_batch`` on real arms, on 1 and on 2 workers.
 
 Arms from example-robot-data (the test extra): G1's left arm (7 hinges, ``auto`` picks
-``lm``: its compiled loop, on 1 and 2 threads) and UR5 (6 hinges, ``subproblem``: 1 and 2
-processes); the bundled arm through ``closed_form``'s vectorised batch
-for comparison. Targets are FK poses of seeded random in-range joints, every solve
-from the home pose. Each timed call follows an untimed one on the first
-``WARM`` targets with the same workers, which builds what the robot state keeps for
-later calls (``lm``'s kernel per thread, a copy of the model: about 30 ms each on G1;
-its seed library, about 60 ms); ``--cold`` times the first call instead. Prints
-targets/s by wall time (the processes' start included) and the calling process's CPU
-time (``time.process_time``: its threads' too, not the worker processes')::
+``lm``: its compiled loop, on 1 and 2 threads) and UR5 (6 hinges, ``subproblem``: its C
+solve and the kernel's measure, on 1 and 2 threads); the bundled arm through
+``closed_form``'s vectorised batch for comparison. Targets are FK poses of seeded
+random in-range joints, every solve from the home pose. Each timed call follows an
+untimed one on the first ``WARM`` targets with the same workers, which builds what the
+robot state keeps for later calls (``lm``'s kernel per thread, a copy of the model:
+about 30 ms each on G1; its seed library, about 60 ms); ``--cold`` times the first call
+instead. Prints targets/s by wall time and the calling process's CPU time
+(``time.process_time``: its threads' too)::
 
     python benchmarks/batch.py --targets 100000 [--cold]
 """

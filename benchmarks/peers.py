@@ -96,7 +96,8 @@ OURS = ("closed_form", "two_link", "dls", "lm", "auto", "mink", "solve_auto")
 ``solve()`` call with ``"auto"``)."""
 MORE_OURS = ("subproblem",)
 """Ours that ``--ours`` also takes, not in the default table: ``subproblem`` applies to
-6-hinge arms only (UR5, Kinova), a row of its reason on every other arm."""
+6-hinge arms of its families (UR5, Kinova) and 7-hinge arms with a joint searched
+(Panda, Talos), a row of its reason on every other arm."""
 PEERS = (
     "trac_ik_5ms",
     "trac_ik_50ms",

@@ -10,6 +10,7 @@ import pytest
 from humanoid_ik import Chain, Target, TargetError, load_model, solve, solve_batch
 from humanoid_ik.core.limbs import limb_chain
 from humanoid_ik.core.robot import Robot
+from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.errors import SolverError
 from tests.chains import fk_poses
 from tests.robots import robot_file
@@ -136,3 +137,32 @@ def test_bad_input_is_one_clear_error(g1_arm, kwargs, error, message):
     targets, solver = args.pop("targets"), args.pop("solver")
     with pytest.raises(error, match=message):
         solve_batch(g1_arm, targets, solver, **args)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_subproblem_batches_give_the_single_calls_answers(workers):
+    """``auto`` on UR5 runs ``subproblem`` (exact, 6 hinges) for pose targets: a batch
+    solves them all in C (``Arm.solve_many``) and measures them in ``lm``'s kernel
+    (``Kernel.measure``), on one or two threads; each result equals the one call's (joints,
+    status, message, errors, details), a target beyond reach and one whose solutions all
+    leave the ranges included; the robot state ends at the last answer."""
+    ur5 = Chain(load_model(robot_file("ur5")), body="tool0")
+    targets = fk_poses(ur5, 40, seed=7)
+    far = Target([3.0, 0.0, 1.0], targets[0].quat)
+    # a pose reachable only with the shoulder outside a narrowed range
+    narrow = Chain(load_model(robot_file("ur5")), body="tool0")
+    narrow.model.jnt_range[narrow.joint_ids[0]] = [-0.2, 0.2]
+    narrow.model.jnt_limited[narrow.joint_ids[0]] = 1
+    q_out = np.array([1.5, -1.0, 1.2, -0.5, 0.8, 0.3])
+    p, R = ur5.fk(q_out)
+    outside = Target(p.copy(), mat_to_quat(R))
+    for chain, batch_targets in ((ur5, [*targets, far]), (narrow, [*targets[:5], outside])):
+        q0 = chain.q_home
+        batch = solve_batch(chain, batch_targets, "auto", q0=q0, workers=workers)
+        for t, got in zip(batch_targets, batch, strict=True):
+            want = solve(chain, t, "auto", q0=q0)
+            assert got == want and got.details == want.details
+            assert got.solver == "subproblem" and got.details["auto"] == ("subproblem",)
+        np.testing.assert_array_equal(chain.q, batch[-1].q)
+        assert not batch[-1].converged and batch[-1].status.value == "unreachable"
+    assert all(r.converged for r in solve_batch(ur5, targets, "subproblem", workers=workers))

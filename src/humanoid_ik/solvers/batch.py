@@ -7,7 +7,12 @@ Where every target is ``lm``'s (the solver ``lm``, or ``auto`` choosing ``lm`` f
 targets' tasks; no elbow pole), the targets go to ``lm``'s compiled loop in one call
 (:meth:`LM.solve_many <humanoid_ik.solvers.jacobian.lm.LM.solve_many>`), on ``workers``
 threads with a kernel each (the loop releases the GIL); a target no start reached is
-solved again by the one call, which measures it (and for ``auto`` retries it).
+solved again by the one call, which measures it (``auto``'s retry of a missed pose
+target runs in the compiled loop too). Where every target is a pose for ``subproblem``
+(the solver, or ``auto``'s choice on a 6-hinge arm of its families), the C solve and
+``lm``'s kernel's measure run over all of them on ``workers`` threads
+(:meth:`Subproblem.solve_many
+<humanoid_ik.solvers.analytic.subproblem.solver.Subproblem.solve_many>`).
 
 Otherwise, with ``workers`` above 1 the targets go in contiguous chunks to that many
 processes, each holding its own copy of the robot (the model as it is now, and its
@@ -30,6 +35,7 @@ from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.types import IKResult, Target
 from humanoid_ik.errors import SolverError, TargetError
+from humanoid_ik.solvers.analytic.subproblem import Subproblem
 from humanoid_ik.solvers.auto import Auto
 from humanoid_ik.solvers.base import Solver, check_start
 from humanoid_ik.solvers.jacobian.lm import LM
@@ -181,6 +187,54 @@ def _solve_compiled(
     return results
 
 
+def _compiled_subproblem(chain: Chain, solver: Solver, targets: list[Target]) -> Subproblem | None:
+    """The ``subproblem`` that solves every target when it is ``solver`` itself or
+    ``auto``'s choice for pose targets, every target is a pose and none has a pole;
+    else ``None``."""
+    if any(t.quat is None or t.pole is not None for t in targets):
+        return None
+    if type(solver) is Subproblem:
+        return solver
+    if type(solver) is Auto:
+        chosen = solver.choice(chain, True)
+        return chosen if type(chosen) is Subproblem else None
+    return None
+
+
+def _solve_exact(
+    chain: Chain,
+    solver: Solver,
+    exact: Subproblem,
+    targets: list[Target],
+    start: NDArray[np.float64],
+    threads: int,
+) -> list[IKResult]:
+    """``solve(chain, target, solver, q0=start)`` for each pose target, ``subproblem``
+    solving them all in C (:meth:`Subproblem.solve_many`, on ``threads`` threads), each
+    result made as the one call makes it (and wrapped as ``auto`` wraps it)."""
+    if not targets:
+        return []
+    chain.claim()
+    try:
+        chain.sync()
+        reason = exact.applicable(chain, True)
+        if reason is not None:
+            raise SolverError(reason)
+        q0 = chain.clip(check_start(chain, start))
+        positions, quats, _, _ = _packed(targets)
+        q, counts, info = exact.solve_many(chain, positions, quats, q0, threads)
+    finally:
+        chain.release()
+    q.setflags(write=False)  # its rows are the results' joints
+    n, extra = chain.n, {"auto": (exact.name,)} if type(solver) is Auto else None
+    make, results = exact.result, []
+    rows = zip(q, counts.astype(int).tolist(), info.tolist(), strict=True)
+    for qi, (found, inside, tried), (ok, _its, ep, er) in rows:
+        results.append(make(n, qi, (found, inside, tried), ok == 1.0, ep, er, extra))
+    chain.set_q(results[-1].q)  # the scratch data at the last answer, as after the one calls
+    return results
+
+
 def _info_rows(
     info: NDArray[np.float64], posed: NDArray[np.bool_]
 ) -> tuple[list[int], list[float], list[float | None]]:
@@ -236,7 +290,8 @@ def solve_batch(
         solver: a solver name (default ``auto``) or a solver object, as for ``solve``.
         quats: orientations ``(N, 4)`` wxyz for positions given as an array.
         q0: the start ``(n,)`` of every solve [rad]; default the chain's current joints.
-        workers: threads (``lm``'s compiled loop) or processes (the other solvers) to
+        workers: threads (``lm``'s compiled loop, ``subproblem``) or processes (the other
+            solvers) to
             solve on (1: this thread; ``0``: one per core).
         **options: solver options, when ``solver`` is a name.
 
@@ -260,6 +315,9 @@ def solve_batch(
     compiled = _compiled_lm(chain, s, items)
     if compiled is not None:
         return [first, *_solve_compiled(chain, s, compiled, items[1:], start, n_workers)]
+    exact = _compiled_subproblem(chain, s, items)
+    if exact is not None:
+        return [first, *_solve_exact(chain, s, exact, items[1:], start, n_workers)]
     if n_workers <= 1:
         return [first] + [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
     # imported here: a solve without workers (every import humanoid_ik) needs neither

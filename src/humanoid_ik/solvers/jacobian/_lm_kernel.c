@@ -930,6 +930,56 @@ done:
   return result;
 }
 
+PyDoc_STRVAR(measure_doc,
+"measure(qpos, qpos_adr, dof_adr, site, ee_id, lower, upper, positions, quats, options,\n"
+"        scratch, qs, out_info) -> None\n"
+"\n"
+"descend from each row of qs (N n,) toward its target, as descend does it (the first 11\n"
+"arguments as for solve, scratch (n,) a writable array standing for q): with\n"
+"max_iterations 0 in options, the kernel's measure of each joint vector, the errors of\n"
+"MuJoCo's FK of it (the kernel's chain kinematics) and whether they are within the\n"
+"tolerances; (converged, iterations, position error, orientation error) into out_info\n"
+"(4 N,). The loop runs without the GIL.");
+
+static PyObject* Kernel_measure(Kernel* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 13) {
+    PyErr_Format(PyExc_TypeError, "measure() takes 13 arguments, got %zd", nargs);
+    return NULL;
+  }
+  Problem p;
+  Py_buffer views[12];
+  int held = 0;
+  const mjtNum* qpos;
+  mjtNum* scratch;
+  PyObject* result = NULL;
+  Py_ssize_t count = 0;
+  if (parse_problem(self, args, &p, views, &held, &qpos, &scratch, 0, &count) < 0) goto done;
+  const mjtNum *positions = p.target_pos, *quats = p.target_quat;
+  if (get_array(args[11], &views[held], 'd', count * p.n, 1, "qs", NULL) < 0) goto done;
+  mjtNum* qs = views[held++].buf;
+  if (get_array(args[12], &views[held], 'd', 4 * count, 1, "out_info", NULL) < 0) goto done;
+  mjtNum* info = views[held++].buf;
+  const mjModel* m = self->m;
+  mjData* d = self->d;
+  self->busy = 1;
+  Py_BEGIN_ALLOW_THREADS
+  memcpy(d->qpos, qpos, sizeof(mjtNum) * (size_t)m->nq);
+  for (Py_ssize_t i = 0; i < count; i++) {
+    p.target_pos = positions + 3 * i;
+    p.target_quat = isnan(quats[4 * i]) ? NULL : quats + 4 * i;
+    p.rows = p.target_quat ? 6 : 3;
+    Outcome out = descend(m, d, &p, qs + (size_t)p.n * i);
+    mjtNum* row = info + 4 * i;
+    row[0] = out.converged, row[1] = out.iterations, row[2] = out.ep, row[3] = out.er;
+  }
+  Py_END_ALLOW_THREADS
+  self->busy = 0;
+  result = Py_NewRef(Py_None);
+done:
+  for (int k = 0; k < held; k++) PyBuffer_Release(&views[k]);
+  return result;
+}
+
 PyDoc_STRVAR(set_mocap_doc,
 "set_mocap(mocap_pos, mocap_quat) -> None\n"
 "\n"
@@ -1045,6 +1095,7 @@ static PyMethodDef Kernel_methods[] = {
     {"descend", (PyCFunction)(void (*)(void))Kernel_descend, METH_FASTCALL, descend_doc},
     {"solve", (PyCFunction)(void (*)(void))Kernel_solve, METH_FASTCALL, solve_doc},
     {"set_mocap", (PyCFunction)(void (*)(void))Kernel_set_mocap, METH_FASTCALL, set_mocap_doc},
+    {"measure", (PyCFunction)(void (*)(void))Kernel_measure, METH_FASTCALL, measure_doc},
     {"restart", (PyCFunction)(void (*)(void))Kernel_restart, METH_FASTCALL, restart_doc},
     {NULL, NULL, 0, NULL},
 };

@@ -59,6 +59,24 @@ class Kernel:
         /,
     ) -> tuple[bool, int, float, float, float]:
         """lm's restarts of one target after its first start (``LM._solve``)."""
+    def measure(
+        self,
+        qpos: NDArray[np.float64],
+        qpos_adr: NDArray[np.int64],
+        dof_adr: NDArray[np.int64],
+        site: bool,
+        ee_id: int,
+        lower: NDArray[np.float64],
+        upper: NDArray[np.float64],
+        positions: NDArray[np.float64],
+        quats: NDArray[np.float64],
+        options: tuple[float, float, float, float, float, int, int],
+        scratch: NDArray[np.float64],
+        qs: NDArray[np.float64],
+        out_info: NDArray[np.float64],
+        /,
+    ) -> None:
+        """The kernel's measure of many joint vectors (``Subproblem.solve_many``)."""
     def set_mocap(
         self, mocap_pos: NDArray[np.float64], mocap_quat: NDArray[np.float64], /
     ) -> None: ...

@@ -5,7 +5,7 @@
    Arm(...) holds an arm's numbers (ArmGeometry), nothing a call changes: any thread may
    call it, and solve() runs without the GIL. solve() finds every solution, applies the
    ranges and writes the pick into the caller's array; solutions() returns every
-   solution. The answer's errors are measured in Python, by core/measures.py, from
+   solution. The answer's errors are measured by lm's kernel (_lm_kernel.c), from
    MuJoCo's FK of it. Every buffer is checked (C-contiguous float64, its length) before
    it is read. */
 
@@ -134,6 +134,22 @@ static PyObject* Arm_solutions(Arm* self, PyObject* const* args, Py_ssize_t narg
   return out;
 }
 
+/* One target: solve's work (the pick into out, its counts into info: found, inside,
+   tried) */
+static void solve_target(const Arm* self, const double* GR, const double* Gp, const double* q0,
+                         const double* lo, const double* hi, double tol, double* out,
+                         double* info) {
+  double sol[MAXSOL][6];
+  int n, inside, tried = 1;
+  if (self->g.locked < 0) {
+    n = sp_solve_all(&self->g.arm, GR, Gp, q0, sol);
+    inside = sp_pick(sol, n, q0, lo, hi, tol, out);
+  } else {
+    inside = sp_search(&self->g, GR, Gp, q0, lo, hi, tol, out, &n, &tried);
+  }
+  info[0] = n, info[1] = inside, info[2] = tried;
+}
+
 PyDoc_STRVAR(solve_doc,
 "solve(position, quaternion, base, start, lower, upper, tol, out) -> (found, inside, tried)\n"
 "\n"
@@ -152,22 +168,18 @@ static PyObject* Arm_solve(Arm* self, PyObject* const* args, Py_ssize_t nargs) {
     return NULL;
   }
   Py_buffer v[4], lo, hi, out;
-  double GR[9], Gp[3], sol[MAXSOL][6];
+  double GR[9], Gp[3];
   double tol = PyFloat_AsDouble(args[6]);
   if (tol == -1.0 && PyErr_Occurred()) return NULL;
   if (read_common(args, v, GR, Gp, self) < 0) return NULL;
   if (get_array(args[4], &lo, self->n, 0, "lower") < 0) goto fail4;
   if (get_array(args[5], &hi, self->n, 0, "upper") < 0) goto fail5;
   if (get_array(args[7], &out, self->n, 1, "out") < 0) goto fail6;
-  int n, inside, tried = 1;
+  double info[3];
   Py_BEGIN_ALLOW_THREADS /* the buffers are held; the arm is only read */
-  if (self->g.locked < 0) {
-    n = sp_solve_all(&self->g.arm, GR, Gp, v[3].buf, sol);
-    inside = sp_pick(sol, n, v[3].buf, lo.buf, hi.buf, tol, out.buf);
-  } else {
-    inside = sp_search(&self->g, GR, Gp, v[3].buf, lo.buf, hi.buf, tol, out.buf, &n, &tried);
-  }
+  solve_target(self, GR, Gp, v[3].buf, lo.buf, hi.buf, tol, out.buf, info);
   Py_END_ALLOW_THREADS
+  int n = (int)info[0], inside = (int)info[1], tried = (int)info[2];
   PyBuffer_Release(&out);
   PyBuffer_Release(&hi);
   PyBuffer_Release(&lo);
@@ -182,6 +194,51 @@ fail4:
   return NULL;
 }
 
+PyDoc_STRVAR(solve_many_doc,
+"solve_many(positions, quaternions, base, start, lower, upper, tol, out, info) -> None\n"
+"\n"
+"solve for each of N targets from the same start: positions (3 N,), quaternions (4 N,),\n"
+"the picks into out (N n,) and (found, inside, tried) into info (3 N,); each the answer\n"
+"solve gives that target, bit for bit. Runs without the GIL.");
+
+static PyObject* Arm_solve_many(Arm* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 9) {
+    PyErr_SetString(PyExc_TypeError, "solve_many takes 9 arguments");
+    return NULL;
+  }
+  double tol = PyFloat_AsDouble(args[6]);
+  if (tol == -1.0 && PyErr_Occurred()) return NULL;
+  Py_buffer v[8];
+  int held = 0;
+  PyObject* result = NULL;
+  Py_buffer probe;
+  if (PyObject_GetBuffer(args[0], &probe, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+  Py_ssize_t count = probe.len / (3 * (Py_ssize_t)sizeof(double));
+  PyBuffer_Release(&probe);
+  const char* names[8] = {"positions", "quaternions", "base", "start", "lower", "upper", "out",
+                          "info"};
+  Py_ssize_t sizes[8] = {3 * count, 4 * count, 12, self->n, self->n, self->n, count * self->n,
+                         3 * count};
+  int slots[8] = {0, 1, 2, 3, 4, 5, 7, 8};
+  for (int i = 0; i < 8; i++, held++) {
+    if (get_array(args[slots[i]], &v[i], sizes[i], i >= 6, names[i]) < 0) goto done;
+  }
+  const double *pos = v[0].buf, *quat = v[1].buf, *base = v[2].buf, *q0 = v[3].buf;
+  const double *lo = v[4].buf, *hi = v[5].buf;
+  double *out = v[6].buf, *info = v[7].buf;
+  Py_BEGIN_ALLOW_THREADS /* the buffers are held; the arm is only read */
+  for (Py_ssize_t i = 0; i < count; i++) {
+    double GR[9], Gp[3];
+    sp_target(&self->g.arm, pos + 3 * i, quat + 4 * i, base, GR, Gp);
+    solve_target(self, GR, Gp, q0, lo, hi, tol, out + self->n * i, info + 3 * i);
+  }
+  Py_END_ALLOW_THREADS
+  result = Py_NewRef(Py_None);
+done:
+  for (int i = 0; i < held; i++) PyBuffer_Release(&v[i]);
+  return result;
+}
+
 static PyMethodDef module_methods[] = {
     {NULL, NULL, 0, NULL},
 };
@@ -189,6 +246,7 @@ static PyMethodDef module_methods[] = {
 static PyMethodDef Arm_methods[] = {
     {"solutions", (PyCFunction)(void (*)(void))Arm_solutions, METH_FASTCALL, solutions_doc},
     {"solve", (PyCFunction)(void (*)(void))Arm_solve, METH_FASTCALL, solve_doc},
+    {"solve_many", (PyCFunction)(void (*)(void))Arm_solve_many, METH_FASTCALL, solve_many_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -45,3 +45,16 @@ class Arm:
         out: NDArray[np.float64],
         /,
     ) -> tuple[int, int, int]: ...
+    def solve_many(
+        self,
+        positions: NDArray[np.float64],
+        quaternions: NDArray[np.float64],
+        base: NDArray[np.float64],
+        start: NDArray[np.float64],
+        lower: NDArray[np.float64],
+        upper: NDArray[np.float64],
+        tol: float,
+        out: NDArray[np.float64],
+        info: NDArray[np.float64],
+        /,
+    ) -> None: ...
