@@ -12,6 +12,8 @@ from humanoid_ik.core.limbs import limb_chain
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.rotations import mat_to_quat
 from humanoid_ik.errors import SolverError
+from humanoid_ik.solvers.analytic.subproblem import subproblem_cache
+from humanoid_ik.solvers.jacobian.lm import kernel
 from tests.chains import fk_poses
 from tests.robots import robot_file
 
@@ -166,3 +168,12 @@ def test_subproblem_batches_give_the_single_calls_answers(workers):
         np.testing.assert_array_equal(chain.q, batch[-1].q)
         assert not batch[-1].converged and batch[-1].status.value == "unreachable"
     assert all(r.converged for r in solve_batch(ur5, targets, "subproblem", workers=workers))
+    # the compiled calls check their buffers
+    arm, base = subproblem_cache(ur5).current(ur5)
+    q0, lo, hi = ur5.q_home, ur5.lower, ur5.upper
+    with pytest.raises(ValueError, match="out must be 12 float64 values"):
+        arm.solve_many(np.zeros(6), np.zeros(8), base, q0, lo, hi, 1e-6, np.zeros(5), np.zeros(6))
+    with pytest.raises(TypeError, match="solve_many takes 9 arguments"):
+        arm.solve_many()
+    with pytest.raises(TypeError, match=r"measure\(\) takes 13 arguments, got 0"):
+        kernel(ur5).measure()

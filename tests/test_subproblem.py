@@ -244,12 +244,19 @@ def nearest_in_range(chain: Chain, sols: list[np.ndarray], q0: np.ndarray):
     return best
 
 
+def quat_from(rng: np.random.Generator) -> np.ndarray:
+    """A seeded random unit quaternion."""
+    q = rng.normal(size=4)
+    return q / np.linalg.norm(q)
+
+
 @pytest.mark.parametrize("name", ["ur5", "kinova"])
 def test_ranges_with_the_2pi_shift_and_the_nearest_solution(name):
     """UR5's joints span [-2 pi, 2 pi] (two shifts fit: the one nearest the start is
     taken), Kinova's limited joints lie in [0.33, 5.96] (solutions in (-pi, pi] need
     a shift of 2 pi), its others are unlimited (moved nearest the start): the answer
-    is the plain rule's, inside the ranges, and its FK is the target."""
+    is the plain rule's, inside the ranges, and its FK is the target. A target beyond
+    reach returns the start, its errors (measured in ``lm``'s kernel) MuJoCo FK's."""
     chain = real_chain(name)
     solver = make_solver("subproblem")
     rng = np.random.default_rng(5)
@@ -265,6 +272,14 @@ def test_ranges_with_the_2pi_shift_and_the_nearest_solution(name):
         assert res.position_error < 1e-9 and res.orientation_error < 1e-9
         assert res.details["inside"] >= 1 and res.details["solutions"] >= res.details["inside"]
         shifted += int(np.abs(res.q).max() > math.pi)
+        # the errors (measured in lm's kernel) are those of MuJoCo's FK of the answer
+        far = Target(target.position * 5.0 + [0.0, 0.0, 2.0], quat_from(rng))
+        off = solver.solve(chain, far, res.q)  # beyond reach: the start, metres off
+        p, R = chain.fk(off.q)
+        assert off.position_error == pytest.approx(np.linalg.norm(p - far.position), abs=1e-12)
+        angle = np.arccos(np.clip((np.trace(quat_to_mat(far.quat).T @ R) - 1) / 2, -1, 1))
+        assert off.orientation_error == pytest.approx(angle, abs=1e-7)
+        assert not off.converged and off.position_error > 0.1
     assert shifted > 10  # the shift was needed
 
 
