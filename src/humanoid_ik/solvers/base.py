@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, ClassVar
 
 import mujoco
@@ -18,7 +18,7 @@ from humanoid_ik.core.types import EffectorGoal, IKResult, Status, Target
 from humanoid_ik.errors import SolverError, TargetError, show_value
 from humanoid_ik.solvers.options import SolverOptions
 
-__all__ = ["Solver", "check_start", "error_buffers"]
+__all__ = ["Solver", "check_start", "error_buffers", "on_threads"]
 
 _KINDS = {
     "b": "true/false values",
@@ -62,6 +62,36 @@ def check_start(chain: Chain, q0: ArrayLike) -> NDArray[np.float64]:
         got = _KINDS.get(kind, str(arr.dtype))
         raise TargetError(f"joint vector must be {chain.n} real numbers (rad), got {got}: {shown}")
     return chain.check_q(arr)
+
+
+def on_threads(count: int, threads: int, run: Callable[[int, int, int], None]) -> None:
+    """``run(k, lo, hi)`` for each of ``threads`` contiguous parts ``[lo, hi)`` of
+    ``count`` items: part 0 in this thread, the others each on a thread of its own
+    (``run`` releases the GIL in compiled code to gain from them); the first exception
+    of any part is raised here, after every part ended."""
+    import threading
+
+    failed: list[BaseException] = []
+
+    def part(k: int, lo: int, hi: int) -> None:
+        try:
+            run(k, lo, hi)
+        except BaseException as exc:  # raised in the caller, not lost in a thread
+            failed.append(exc)
+
+    bounds = np.linspace(0, count, threads + 1).astype(int).tolist()
+    workers = [
+        threading.Thread(target=part, args=(k, bounds[k], bounds[k + 1])) for k in range(1, threads)
+    ]
+    for w in workers:
+        w.start()
+    try:
+        part(0, bounds[0], bounds[1])
+    finally:
+        for w in workers:
+            w.join()
+    if failed:
+        raise failed[0]
 
 
 def error_buffers(chain: Chain) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -85,7 +85,7 @@ from humanoid_ik.core.measures import pose_error
 from humanoid_ik.core.rotations import axis_angle_matrix
 from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.solvers.analytic.elbow import POLE_TOL, elbow_frame, pole_angle
-from humanoid_ik.solvers.base import Solver, error_buffers
+from humanoid_ik.solvers.base import Solver, error_buffers, on_threads
 from humanoid_ik.solvers.iterate import pose_cost
 from humanoid_ik.solvers.jacobian import _lm_kernel
 from humanoid_ik.solvers.jacobian.loop import OPTION_BOUNDS
@@ -221,8 +221,6 @@ class LM(Solver):
 
         The caller holds the robot (:meth:`Chain.claim`) and has synced it.
         """
-        import threading
-
         o = self.options
         count = len(positions)
         kernels = [kernel(chain, k) for k in range(threads)]  # built here, not in threads
@@ -236,32 +234,15 @@ class LM(Solver):
         flat = [np.ascontiguousarray(a).reshape(count, -1) for a in (positions, quats, rotations)]
 
         options = self.kernel_options()
-        failed: list[BaseException] = []
 
         def run(k: int, lo: int, hi: int) -> None:
             p, qt, rot = (a[lo:hi].reshape(-1) for a in flat)
-            try:
-                kernels[k].solve(
-                    *fixed, p, qt, options, q0.copy(), rot, library, o.library_seeds,
-                    randoms, o.restarts, q[lo:hi].reshape(-1), info[lo:hi].reshape(-1),
-                )  # fmt: skip
-            except BaseException as exc:  # raised in the caller, not lost in a thread
-                failed.append(exc)
+            kernels[k].solve(
+                *fixed, p, qt, options, q0.copy(), rot, library, o.library_seeds,
+                randoms, o.restarts, q[lo:hi].reshape(-1), info[lo:hi].reshape(-1),
+            )  # fmt: skip
 
-        bounds = np.linspace(0, count, threads + 1).astype(int)
-        workers = [
-            threading.Thread(target=run, args=(k, int(bounds[k]), int(bounds[k + 1])))
-            for k in range(1, threads)
-        ]
-        for w in workers:
-            w.start()
-        try:
-            run(0, int(bounds[0]), int(bounds[1]))
-        finally:
-            for w in workers:
-                w.join()
-        if failed:
-            raise failed[0]
+        on_threads(count, threads, run)
         return q, info
 
     def _solve(self, chain: Chain, target: Target, q0: NDArray[np.float64]) -> IKResult:

@@ -18,7 +18,7 @@ from humanoid_ik.core.types import IKResult, Status, Target
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.analytic.closed_form.numeric import RANGE_TOL
 from humanoid_ik.solvers.analytic.subproblem.geometry import subproblem_cache
-from humanoid_ik.solvers.base import Solver
+from humanoid_ik.solvers.base import Solver, on_threads
 from humanoid_ik.solvers.jacobian.lm import kernel
 from humanoid_ik.solvers.options import SolverOptions
 
@@ -170,8 +170,6 @@ class Subproblem(Solver):
 
         The caller holds the robot (:meth:`Chain.claim`) and has synced it.
         """
-        import threading
-
         arm, base = subproblem_cache(chain).current(chain)
         count, n = len(positions), chain.n
         kernels = [kernel(chain, k) for k in range(threads)]  # built here, not in threads
@@ -181,36 +179,19 @@ class Subproblem(Solver):
             chain.data.qpos.copy(), chain.qpos_adr, chain.dof_adr, chain.ee_kind == "site",
             chain.ee_id, chain.lower, chain.upper,
         )  # fmt: skip
-        failed: list[BaseException] = []
 
         def run(k: int, lo: int, hi: int) -> None:
-            try:
-                pk, qk, out = p[lo:hi].reshape(-1), qt[lo:hi].reshape(-1), q[lo:hi]
-                arm.solve_many(
-                    pk, qk, base, q0, chain.lower, chain.upper, RANGE_TOL, out.reshape(-1),
-                    counts[lo:hi].reshape(-1),
-                )  # fmt: skip
-                kernels[k].measure(
-                    *fixed, pk, qk, self._measure, np.empty(n), out.reshape(-1),
-                    info[lo:hi].reshape(-1),
-                )  # fmt: skip
-            except BaseException as exc:  # raised in the caller, not lost in a thread
-                failed.append(exc)
+            pk, qk, out = p[lo:hi].reshape(-1), qt[lo:hi].reshape(-1), q[lo:hi]
+            arm.solve_many(
+                pk, qk, base, q0, chain.lower, chain.upper, RANGE_TOL, out.reshape(-1),
+                counts[lo:hi].reshape(-1),
+            )  # fmt: skip
+            kernels[k].measure(
+                *fixed, pk, qk, self._measure, np.empty(n), out.reshape(-1),
+                info[lo:hi].reshape(-1),
+            )  # fmt: skip
 
-        bounds = np.linspace(0, count, threads + 1).astype(int)
-        workers = [
-            threading.Thread(target=run, args=(k, int(bounds[k]), int(bounds[k + 1])))
-            for k in range(1, threads)
-        ]
-        for w in workers:
-            w.start()
-        try:
-            run(0, int(bounds[0]), int(bounds[1]))
-        finally:
-            for w in workers:
-                w.join()
-        if failed:
-            raise failed[0]
+        on_threads(count, threads, run)
         return q, counts, info
 
 
