@@ -14,7 +14,7 @@ The choice depends on the chain and the target only (measured on real arms in
   CPU or below with a p95 a quarter of ``lm``'s (``benchmarks/peers.py``,
   ``docs/subproblem.md``); else ``lm``, also on a 7-hinge chain ``subproblem`` solves
   by searching its first or last joint (Panda, Talos's arm: the search's CPU median
-  measured 0.90-1.26 times ``lm``'s on Panda, PR2, Talos and TIAGo,
+  measured 0.86-1.19 times ``lm``'s on Panda, PR2, Talos and TIAGo,
   ``benchmarks/searched.py``: faster on two of them, no rule);
 - a position target: ``two_link`` where it places the end frame wherever the chain can:
   shoulder axes that meet (or a planar shoulder), an elbow, and nothing after the elbow
