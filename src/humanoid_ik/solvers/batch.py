@@ -226,11 +226,8 @@ def _solve_exact(
     finally:
         chain.release()
     q.setflags(write=False)  # its rows are the results' joints
-    n, extra = chain.n, {"auto": (exact.name,)} if type(solver) is Auto else None
-    make, results = exact.result, []
-    rows = zip(q, counts.astype(int).tolist(), info.tolist(), strict=True)
-    for qi, (found, inside, tried), (ok, _its, ep, er) in rows:
-        results.append(make(n, qi, (found, inside, tried), ok == 1.0, ep, er, extra))
+    extra = {"auto": (exact.name,)} if type(solver) is Auto else None
+    results = exact.results(chain.n, q, counts, info, extra)
     chain.set_q(results[-1].q)  # the scratch data at the last answer, as after the one calls
     return results
 
