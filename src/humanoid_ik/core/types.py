@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import gc
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from enum import StrEnum
 from types import MappingProxyType
@@ -19,7 +20,15 @@ if TYPE_CHECKING:
     from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import normalize_quat, quat_to_mat
 
-__all__ = ["EffectorGoal", "IKResult", "STATUSES", "Status", "TARGET_KINDS", "Target"]
+__all__ = [
+    "EffectorGoal",
+    "IKResult",
+    "STATUSES",
+    "Status",
+    "TARGET_KINDS",
+    "Target",
+    "collector_held",
+]
 
 
 class Status(StrEnum):
@@ -172,6 +181,20 @@ def _point(what: str, value: ArrayLike) -> NDArray[np.float64]:
 _NO_DETAILS: Mapping[str, Any] = MappingProxyType({})
 
 
+@contextmanager
+def collector_held() -> Iterator[None]:
+    """Python's cyclic collector held off for the block (then as it was): while many
+    results pile up. They make no reference cycles, but the collector, run again and
+    again over them, cost 1.5 us a result more at 100,000 (G1's batch)."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if collecting:
+            gc.enable()
+
+
 @dataclass(frozen=True, eq=False)
 class IKResult:
     """What a solver did.
@@ -278,20 +301,13 @@ class IKResult:
         }  # fmt: skip
         new, out = object.__new__, []
         rows = zip(q, iterations, position_errors, orientation_errors, strict=True)
-        # results make no reference cycles, but the cyclic collector, run again and again
-        # as they pile up, cost 1.5 us a result more at 100,000 (G1's batch)
-        collecting = gc.isenabled()
-        gc.disable()
-        try:
+        with collector_held():
             for qi, its, ep, er in rows:
                 r = new(cls)
                 r.__dict__.update(
                     template, q=qi, iterations=its, position_error=ep, orientation_error=er
                 )
                 out.append(r)
-        finally:
-            if collecting:
-                gc.enable()
         return out
 
     def with_details(self, **extra: Any) -> IKResult:

@@ -5,7 +5,6 @@ whose first or last joint, held, leaves such six, by a search over that joint.""
 
 from __future__ import annotations
 
-import gc
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -15,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.types import IKResult, Status, Target
+from humanoid_ik.core.types import IKResult, Status, Target, collector_held
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.analytic.closed_form.numeric import RANGE_TOL
 from humanoid_ik.solvers.analytic.subproblem.geometry import subproblem_cache
@@ -170,9 +169,7 @@ class Subproblem(Solver):
         shared: dict[tuple[int, int, int], Mapping[str, Any]] = {}
         new, out = object.__new__, []
         rows = zip(q, counts.astype(int).tolist(), info.tolist(), strict=True)
-        collecting = gc.isenabled()  # see IKResult.converged_rows
-        gc.disable()
-        try:
+        with collector_held():
             for qi, (found, inside, tried), (ok, _its, ep, er) in rows:
                 if not (inside and ok == 1.0):
                     out.append(self.result(n, qi, (found, inside, tried), False, ep, er, extra))
@@ -189,9 +186,6 @@ class Subproblem(Solver):
                     template, q=qi, position_error=ep, orientation_error=er, details=details
                 )
                 out.append(r)
-        finally:
-            if collecting:
-                gc.enable()
         return out
 
     def solve_many(
