@@ -177,3 +177,50 @@ def test_subproblem_batches_give_the_single_calls_answers(workers):
         arm.solve_many()
     with pytest.raises(TypeError, match=r"measure\(\) takes 13 arguments, got 0"):
         kernel(ur5).measure()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_subproblem_batches_of_arrays_stay_arrays(workers):
+    """UR5 pose targets as arrays ``(N, 3)`` and ``(N, 4)``, the quaternions a little off
+    unit norm (as a user's are): the batch's arrays equal the one calls' results with
+    ``Target(position, quat)`` bit for bit (the quaternion normalised the same way),
+    and so does each result read from it; a bad row is the error its ``Target`` gives,
+    naming the value, before anything is solved."""
+    ur5 = Chain(load_model(robot_file("ur5")), body="tool0")
+    targets = fk_poses(ur5, 30, seed=3)
+    p = np.array([t.position for t in targets])
+    qt = np.array([t.quat for t in targets]) * np.linspace(0.9995, 1.0005, 30)[:, None]
+    q0 = ur5.q_home
+    batch = solve_batch(ur5, p, quats=qt, q0=q0, workers=workers)
+    want = [solve(ur5, Target(pi, qi), "auto", q0=q0) for pi, qi in zip(p, qt, strict=True)]
+    np.testing.assert_array_equal(batch.q, np.array([w.q for w in want]))
+    np.testing.assert_array_equal(batch.position_error, [w.position_error for w in want])
+    np.testing.assert_array_equal(batch.orientation_error, [w.orientation_error for w in want])
+    assert batch.converged.all() and batch.q.shape == (30, 6) and not batch.q.flags.writeable
+    assert batch == want and batch[-1] == want[-1] and batch[3:5] == want[3:5]
+    assert (
+        batch[7].details
+        == want[7].details
+        == {"solutions": 8, "inside": 8, "auto": ("subproblem",)}
+    )
+    with pytest.raises(IndexError, match="result 30 of a batch of 30"):
+        batch[30]
+    bad_p, bad_q = p.copy(), qt.copy()
+    bad_p[4, 1] = np.nan
+    with pytest.raises(TargetError, match=r"target position \[.*nan.*\] is not finite"):
+        solve_batch(ur5, bad_p, quats=qt, q0=q0)
+    bad_q[2] = [2.0, 0.0, 0.0, 0.0]
+    with pytest.raises(TargetError, match=r"quaternion \[2.0, 0.0, 0.0, 0.0\] has norm 2"):
+        solve_batch(ur5, p, quats=bad_q, q0=q0)
+
+
+def test_batches_of_results_as_arrays(g1_arm):
+    """A batch solved per target (``dls``, position targets) gathers its arrays from its
+    results: the orientation error NaN where a target has none."""
+    targets = fk_poses(g1_arm, 4, seed=5)
+    p = np.array([t.position for t in targets])
+    batch = solve_batch(g1_arm, p, "dls", q0=g1_arm.q_home)
+    assert batch.q.shape == (4, 7) and np.isnan(batch.orientation_error).all()
+    np.testing.assert_array_equal(batch.q[2], batch[2].q)
+    np.testing.assert_array_equal(batch.position_error, [r.position_error for r in batch])
+    assert batch.converged.tolist() == [r.converged for r in batch] == [True] * 4

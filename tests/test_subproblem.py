@@ -33,6 +33,8 @@ from .robots import robot_file
 FAMILIES = {
     "parallel": "three parallel axes (h2 || h3 || h4)",
     "parallel_reversed": "three parallel axes (h3 || h4 || h5)",
+    "parallel_meet56": "three parallel axes (h2 || h3 || h4), h5 and h6 meet",
+    "parallel_reversed_meet12": "three parallel axes (h3 || h4 || h5), h1 and h2 meet",
     "wrist_23": "spherical wrist (axes 4, 5, 6 meet), h2 || h3",
     "wrist_12": "spherical wrist (axes 4, 5, 6 meet), h1 || h2",
     "wrist_meet12": "spherical wrist (axes 4, 5, 6 meet), h1 and h2 meet",
@@ -59,8 +61,12 @@ def random_arm(
     links = [_unit(rng) * rng.uniform(0.1, 0.5) for _ in range(6)]  # body i+1 from body i
     sign = lambda: rng.choice([-1.0, 1.0])  # noqa: E731
     if kind.startswith("parallel"):
-        a, b, c = (1, 2, 3) if kind == "parallel" else (2, 3, 4)
+        a, b, c = (2, 3, 4) if kind.startswith("parallel_reversed") else (1, 2, 3)
         axes[b], axes[c] = sign() * axes[a], sign() * axes[a]
+        if kind == "parallel_meet56":  # body 6 at body 5's origin: axes 5 and 6 meet (UR)
+            links[4] = np.zeros(3)
+        if kind == "parallel_reversed_meet12":  # body 2 at body 1's: axes 1 and 2 meet
+            links[0] = np.zeros(3)
     if kind.startswith("wrist"):
         links[3] = links[4] = np.zeros(3)  # bodies 4, 5, 6 at one point
         if kind == "wrist_23":
@@ -145,7 +151,7 @@ def test_real_arms_families_and_refusals():
     with its last joint searched. A 5-hinge arm, a 6-hinge arm of random axes and one
     whose wrist meets but whose other axes neither meet nor are parallel get a reason,
     said by applicable() and by solve()."""
-    assert subproblem_cache(real_chain("ur5")).family.name == FAMILIES["parallel"]
+    assert subproblem_cache(real_chain("ur5")).family.name == FAMILIES["parallel_meet56"]
     assert subproblem_cache(real_chain("kinova")).family.name == FAMILIES["wrist_23"]
     assert subproblem_cache(real_chain("humanoid6")).family.name == (
         "spherical shoulder (axes 1, 2, 3 meet), h5 and h6 meet"

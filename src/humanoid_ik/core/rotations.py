@@ -25,6 +25,8 @@ __all__ = [
     "mat_to_quat",
     "rotation_log",
     "normalize_quat",
+    "quat_norms",
+    "UNIT_TOL",
     "decompose_three_axes",
     "hinge_angle_between",
     "axes_meeting_point",
@@ -143,7 +145,19 @@ def look_at(
     return R
 
 
-def normalize_quat(quat: ArrayLike, tol: float = 1e-3) -> NDArray[np.float64]:
+def quat_norms(quats: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The norms of wxyz quaternions ``(..., 4)``, summed in one fixed order (w, x, y, z),
+    so that a quaternion's norm is the same bits alone or as a row of many
+    (``solve_batch``'s targets are normalised as :class:`~.types.Target` normalises one)."""
+    w, x, y, z = (quats[..., k] for k in range(4))
+    return np.sqrt(((w * w + x * x) + y * y) + z * z)
+
+
+UNIT_TOL = 1e-3
+"""How far a target quaternion's norm may be from 1 (it is then normalised)."""
+
+
+def normalize_quat(quat: ArrayLike, tol: float = UNIT_TOL) -> NDArray[np.float64]:
     """Check a wxyz quaternion and return it with unit norm.
 
     Raises:
@@ -154,7 +168,7 @@ def normalize_quat(quat: ArrayLike, tol: float = 1e-3) -> NDArray[np.float64]:
         raise TargetError(f"quaternion must have 4 values (w, x, y, z), got shape {q.shape}")
     if not np.all(np.isfinite(q)):
         raise TargetError(f"quaternion {q.tolist()} is not finite")
-    n = float(np.linalg.norm(q))
+    n = float(quat_norms(q))
     if n == 0.0:
         raise TargetError("quaternion (0, 0, 0, 0) has zero norm; expected a unit (w, x, y, z)")
     if abs(n - 1.0) > tol:

@@ -130,8 +130,7 @@ def make_block(
         q, ok = closed_form_batch(chain, positions, quats)
     else:
         results = solve_batch(chain, positions, solver, quats=quats, q0=chain.q_home)
-        q = np.array([r.q for r in results]).reshape(BLOCK, chain.n)
-        ok = np.array([r.converged for r in results], dtype=bool)
+        q, ok = results.q, results.converged
     q = np.where(ok[:, None], q, q_s)
     return positions, quats, q, ok
 

@@ -32,8 +32,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
+from humanoid_ik.core.checks import float_array
 from humanoid_ik.core.robot import Robot
-from humanoid_ik.core.types import IKResult, Target
+from humanoid_ik.core.rotations import UNIT_TOL, quat_norms
+from humanoid_ik.core.types import MAX_COORDINATE, BatchResults, IKResult, Target
 from humanoid_ik.errors import SolverError, TargetError
 from humanoid_ik.solvers.analytic.subproblem import Subproblem
 from humanoid_ik.solvers.auto import Auto
@@ -50,26 +52,48 @@ _WORKER: dict[str, Any] = {}
 """A worker process's chain, start and solver (set once by :func:`_start_worker`)."""
 
 
-def _targets(targets: Sequence[Target] | ArrayLike, quats: ArrayLike | None) -> list[Target]:
-    """``targets`` as :class:`Target` objects: a sequence of them, or positions ``(N, 3)``
-    with orientations ``(N, 4)`` wxyz or ``None``."""
+Given = tuple[list[Target] | None, NDArray[np.float64], NDArray[np.float64] | None]
+"""Targets as given (:func:`_given`): the objects, or ``None`` with the positions ``(N,
+3)`` and the quaternions ``(N, 4)`` as given (or ``None``)."""
+
+
+def _given(targets: Sequence[Target] | ArrayLike, quats: ArrayLike | None) -> Given:
+    """``targets`` checked: a sequence of :class:`Target` objects, or positions ``(N, 3)``
+    with orientations ``(N, 4)`` wxyz or ``None``, checked as arrays (a bad row raises
+    the error its ``Target`` would)."""
     if isinstance(targets, Sequence) and all(isinstance(t, Target) for t in targets):
         if quats is not None:
             raise TargetError("quats go with positions (N, 3), not with Target objects")
-        return list(targets)
-    p = np.asarray(targets, dtype=np.float64)
+        return list(targets), np.empty((0, 3)), None
+    p = float_array("target positions", targets)
     if p.ndim != 2 or p.shape[1] != 3:
         raise TargetError(
             f"targets must be Target objects or positions (N, 3) [m], got shape {p.shape}"
         )
+    bad = ~(np.abs(p) <= MAX_COORDINATE).all(axis=1)  # NaN fails it too
+    if bad.any():
+        Target(p[np.flatnonzero(bad)[0]])  # raises the row's error
     if quats is None:
-        return [Target(row) for row in p]
-    qt = np.asarray(quats, dtype=np.float64)
+        return None, p, None
+    qt = float_array("quaternions", quats)
     if qt.shape != (len(p), 4):
         raise TargetError(
             f"quats must be ({len(p)}, 4) wxyz to go with the positions, got {qt.shape}"
         )
-    return [Target(row, quat) for row, quat in zip(p, qt, strict=True)]
+    norms = quat_norms(qt)
+    bad = ~(np.abs(norms - 1.0) <= UNIT_TOL)  # NaN, inf and zero fail it too
+    if bad.any():
+        i = np.flatnonzero(bad)[0]
+        Target(p[i], qt[i])  # raises the row's error
+    return None, p, qt
+
+
+def _target(given: Given, i: int) -> Target:
+    """Target ``i`` of :func:`_given`'s targets."""
+    objects, p, qt = given
+    if objects is not None:
+        return objects[i]
+    return Target(p[i], None if qt is None else qt[i])
 
 
 def _start_worker(
@@ -187,11 +211,14 @@ def _solve_compiled(
     return results
 
 
-def _compiled_subproblem(chain: Chain, solver: Solver, targets: list[Target]) -> Subproblem | None:
+def _compiled_subproblem(chain: Chain, solver: Solver, given: Given) -> Subproblem | None:
     """The ``subproblem`` that solves every target when it is ``solver`` itself or
     ``auto``'s choice for pose targets, every target is a pose and none has a pole;
     else ``None``."""
-    if any(t.quat is None or t.pole is not None for t in targets):
+    objects, _, qt = given
+    if objects is None and qt is None:
+        return None
+    if objects is not None and any(t.quat is None or t.pole is not None for t in objects):
         return None
     if type(solver) is Subproblem:
         return solver
@@ -205,15 +232,21 @@ def _solve_exact(
     chain: Chain,
     solver: Solver,
     exact: Subproblem,
-    targets: list[Target],
+    given: Given,
     start: NDArray[np.float64],
     threads: int,
-) -> list[IKResult]:
+) -> BatchResults:
     """``solve(chain, target, solver, q0=start)`` for each pose target, ``subproblem``
     solving them all in C (:meth:`Subproblem.solve_many`, on ``threads`` threads), each
-    result made as the one call makes it (and wrapped as ``auto`` wraps it)."""
-    if not targets:
-        return []
+    result made as the one call makes it (and wrapped as ``auto`` wraps it) when read.
+    Targets given as arrays stay arrays: their quaternions normalised as
+    :class:`Target` normalises one (:func:`~humanoid_ik.core.rotations.quat_norms`)."""
+    objects, positions, quats = given
+    if objects is not None:
+        positions, quats, _, _ = _packed(objects)
+    else:
+        assert quats is not None
+        quats = quats / quat_norms(quats)[:, None]
     chain.claim()
     try:
         chain.sync()
@@ -221,15 +254,13 @@ def _solve_exact(
         if reason is not None:
             raise SolverError(reason)
         q0 = chain.clip(check_start(chain, start))
-        positions, quats, _, _ = _packed(targets)
         q, counts, info = exact.solve_many(chain, positions, quats, q0, threads)
     finally:
         chain.release()
     q.setflags(write=False)  # its rows are the results' joints
     extra = {"auto": (exact.name,)} if type(solver) is Auto else None
-    results = exact.results(chain.n, q, counts, info, extra)
-    chain.set_q(results[-1].q)  # the scratch data at the last answer, as after the one calls
-    return results
+    chain.set_q(q[-1])  # the scratch data at the last answer, as after the one calls
+    return exact.batch(chain.n, q, counts, info, extra)
 
 
 def _info_rows(
@@ -278,7 +309,7 @@ def solve_batch(
     q0: ArrayLike | None = None,
     workers: int = 1,
     **options: Any,
-) -> list[IKResult]:
+) -> BatchResults:
     """Solve IK for ``chain`` toward each of ``targets``, each from the same start.
 
     Args:
@@ -288,35 +319,40 @@ def solve_batch(
         quats: orientations ``(N, 4)`` wxyz for positions given as an array.
         q0: the start ``(n,)`` of every solve [rad]; default the chain's current joints.
         workers: threads (``lm``'s compiled loop, ``subproblem``) or processes (the other
-            solvers) to
-            solve on (1: this thread; ``0``: one per core).
+            solvers) to solve on (1: this thread; ``0``: one per core).
         **options: solver options, when ``solver`` is a name.
 
     Returns:
-        One :class:`IKResult` per target, in order, equal to ``solve(chain, target,
-        solver, q0=q0, **options)`` for each.
+        The :class:`~humanoid_ik.core.types.BatchResults`: one :class:`IKResult` per
+        target, in order, equal to ``solve(chain, target, solver, q0=q0, **options)``
+        for each, and the same answers as arrays (``.q``, ``.converged``, ...).
 
     Raises:
         HumanoidIKError: a bad target, solver, option or ``workers``; nothing is solved.
     """
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
         raise SolverError(f"workers must be an integer >= 0 (0: one per core), got {workers!r}")
-    items = _targets(targets, quats)
+    given = _given(targets, quats)
+    count = len(given[0]) if given[0] is not None else len(given[1])
     start = chain.q if q0 is None else np.asarray(q0, dtype=np.float64)
-    if not items:
-        return []
-    n_workers = min(int(workers) or (os.cpu_count() or 1), len(items))
+    if not count:
+        return BatchResults.of([])
+    n_workers = min(int(workers) or (os.cpu_count() or 1), count)
     qpos = chain.data.qpos.copy()  # the robot's pose the workers copy, before any solve
-    first = solve(chain, items[0], solver, q0=start, **options)  # checks solver and start
+    # checks solver and start
+    first = solve(chain, _target(given, 0), solver, q0=start, **options)
     s = solver_for(solver, options) if isinstance(solver, str) else solver
+    exact = _compiled_subproblem(chain, s, given)
+    if exact is not None:
+        return _solve_exact(chain, s, exact, given, start, n_workers)
+    items = given[0] if given[0] is not None else [_target(given, i) for i in range(count)]
     compiled = _compiled_lm(chain, s, items)
     if compiled is not None:
-        return [first, *_solve_compiled(chain, s, compiled, items[1:], start, n_workers)]
-    exact = _compiled_subproblem(chain, s, items)
-    if exact is not None:
-        return [first, *_solve_exact(chain, s, exact, items[1:], start, n_workers)]
+        rest = _solve_compiled(chain, s, compiled, items[1:], start, n_workers)
+        return BatchResults.of([first, *rest])
     if n_workers <= 1:
-        return [first] + [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
+        rest = [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
+        return BatchResults.of([first, *rest])
     # imported here: a solve without workers (every import humanoid_ik) needs neither
     import multiprocessing as mp
     import tempfile
@@ -338,6 +374,6 @@ def solve_batch(
             n_workers, mp_context=ctx, initializer=_start_worker, initargs=args
         ) as pool:
             results = [first]
-            for q, rest in pool.map(_solve_chunk, chunks):
-                results.extend(IKResult(qi, *f) for qi, f in zip(q, rest, strict=True))
-    return results
+            for q, fields in pool.map(_solve_chunk, chunks):
+                results.extend(IKResult(qi, *f) for qi, f in zip(q, fields, strict=True))
+    return BatchResults.of(results)

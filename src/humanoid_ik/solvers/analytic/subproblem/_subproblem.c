@@ -139,11 +139,9 @@ static PyObject* Arm_solutions(Arm* self, PyObject* const* args, Py_ssize_t narg
 static void solve_target(const Arm* self, const double* GR, const double* Gp, const double* q0,
                          const double* lo, const double* hi, double tol, double* out,
                          double* info) {
-  double sol[MAXSOL][6];
   int n, inside, tried = 1;
   if (self->g.locked < 0) {
-    n = sp_solve_all(&self->g.arm, GR, Gp, q0, sol);
-    inside = sp_pick(sol, n, q0, lo, hi, tol, out);
+    inside = sp_solve_pick(&self->g.arm, GR, Gp, q0, lo, hi, tol, out, &n);
   } else {
     inside = sp_search(&self->g, GR, Gp, q0, lo, hi, tol, out, &n, &tried);
   }

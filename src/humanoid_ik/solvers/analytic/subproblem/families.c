@@ -21,9 +21,10 @@
         meet at O, SP3 + SP2; 3 h2 and h3 meet at O, SP3 + SP2), then the wrist
         R4 R5 R6 = (R1 R2 R3)' G_R by SP4 + SP1 + SP1: up to 4 x 2 = 8 solutions.
      1  three parallel axes h2 || h3 || h4 (the UR family): q1 and q5 from SP6 (what the
-        parallel axes leave along h: a point of axis 6 and the axis h6 itself), q6 by
-        SP1, the sum q2 + q3 + q4 by SP1, then the planar q2, q3 by SP3 + SP1: up to
-        4 x 2 = 8 solutions.
+        parallel axes leave along h: a point of axis 6 and the axis h6 itself; `pcase`
+        1, axes 5 and 6 meet as on the UR arms: SP4 + SP4 instead), q6 by SP1, the sum
+        q2 + q3 + q4 by SP1, then the planar q2, q3 by SP3 + SP1: up to 4 x 2 = 8
+        solutions.
    `reverse`: the arm was given reversed (base and end swapped: axes 6..1, negated), so
    G is inverted first and the answers read back in the chain's order; a spherical
    shoulder and h3 || h4 || h5 are then the same two families.
@@ -254,14 +255,28 @@ static int family_wrist(const ArmGeometry* a, const double* GR, const double* Gp
   return n;
 }
 
-static int family_parallel(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
-                           double out[MAXSOL][6]) {
+/* the pairs (t1, t2) = (-q1, q5) of family 1 (three parallel axes, along h), up to 4.
+   Along h what the parallel axes leave: h' R(h1, -q1) (G p6 - p1) - h' R(h5, q5) (p6 - p5)
+   = h' (p5 - p1) and h' R(h1, -q1) (G_R h6) - h' R(h5, q5) h6 = 0; SP6 solves the two at
+   once. Where axes 5 and 6 meet at O (pcase 1, the UR arms), p5 = p6 = O makes the first
+   an SP4 in q1 alone and the second, for each q1, an SP4 in q5. */
+static int parallel_pairs(const ArmGeometry* a, const double* GR, const double* Gp, double* t1,
+                          double* t2) {
   const double *h = a->h[1], *h1 = a->h[0], *h5 = a->h[4], *h6 = a->h[5];
-  const double *p1 = a->p[0], *p2 = a->p[1], *p3 = a->p[2], *p4 = a->p[3], *p5 = a->p[4], *p6 = a->p[5];
-  double s3 = dot(a->h[2], h) > 0.0 ? 1.0 : -1.0, s4 = dot(a->h[3], h) > 0.0 ? 1.0 : -1.0;
-  double Gp6[3], a1[3], b1[3], a2[3], b2[3], c[3], A[2][4], b[2], t1[4], t2[4];
-  /* along h: h' R(h1, -q1) (G p6 - p1) - h' R(h5, q5) (p6 - p5) = h' (p5 - p1) and
-     h' R(h1, -q1) (G_R h6) - h' R(h5, q5) h6 = 0 */
+  const double *p1 = a->p[0], *p5 = a->p[4], *p6 = a->p[5];
+  double Gp6[3], a1[3], b1[3], a2[3], b2[3], c[3], A[2][4], b[2];
+  if (a->pcase == 1) {
+    double u[2], v[2], r[3];
+    int n = 0;
+    mat_vec(GR, a->O, Gp6);
+    add(Gp6, Gp, Gp6);
+    sub(Gp6, p1, a1), sub(a->O, p1, c), mat_vec(GR, h6, a2);
+    for (int i = 0, ni = sp4(h, h1, a1, dot(h, c), u); i < ni; i++) {
+      rot(h1, u[i], a2, r);
+      for (int j = 0, nj = sp4(h, h5, h6, dot(h, r), v); j < nj; j++) t1[n] = u[i], t2[n] = v[j], n++;
+    }
+    return n;
+  }
   mat_vec(GR, p6, Gp6);
   add(Gp6, Gp, Gp6);
   sub(Gp6, p1, a1), sub(p5, p6, b1), mat_vec(GR, h6, a2);
@@ -276,31 +291,42 @@ static int family_parallel(const ArmGeometry* a, const double* GR, const double*
     A[r][0] = ta[1], A[r][1] = ta[2], A[r][2] = tb[1], A[r][3] = tb[2];
     b[r] -= ta[0] + tb[0];
   }
-  int n6 = sp6(A, b, t1, t2), n = 0;
+  return sp6(A, b, t1, t2);
+}
+
+static int family_parallel(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
+                           double out[MAXSOL][6]) {
+  const double *h = a->h[1], *h1 = a->h[0], *h5 = a->h[4], *h6 = a->h[5];
+  const double *p1 = a->p[0], *p2 = a->p[1], *p3 = a->p[2], *p4 = a->p[3], *p5 = a->p[4], *p6 = a->p[5];
+  double s3 = dot(a->h[2], h) > 0.0 ? 1.0 : -1.0, s4 = dot(a->h[3], h) > 0.0 ? 1.0 : -1.0;
+  double t1[4], t2[4];
+  int n6 = parallel_pairs(a, GR, Gp, t1, t2), n = 0;
+  double R1[9], M[9], Mth[3], nrm[3], pp[3], qq[3];
+  normal_to(h, nrm);
+  sub(p4, p3, pp), sub(p2, p3, qq);
   for (int i = 0; i < n6; i++) {
-    double q1 = -t1[i], q5 = t2[i], q6, R1[9], R5[9], R6[9], M[9], Mth[3], x[3], y[3];
-    rot_mat(h1, q1, R1), rot_mat(h5, q5, R5);
-    mat_tmul(R1, GR, M); /* R234 R5 R6 */
-    mat_tvec(M, h, Mth);
+    double q1 = -t1[i], q5 = t2[i], q6, R5[9], R6[9], x[3], y[3], z[3], th, Kp4[3], d[3], u[2];
+    if (i == 0 || t1[i] != t1[i - 1]) { /* the pairs of one q1 share its rotation */
+      rot_mat(h1, q1, R1);
+      mat_tmul(R1, GR, M); /* R234 R5 R6 */
+      mat_tvec(M, h, Mth);
+    }
+    rot_mat(h5, q5, R5);
     mat_tvec(R5, h, y);
     if (sp1(h6, Mth, y, &q6) < 1e-12) q6 = q0[5];
     rot_mat(h6, q6, R6);
-    /* R234 = M R6' R5': its angle about h */
-    double B[9], C[9], nrm[3], th, z[3], Kp4[3];
-    mat_mul(R5, R6, B);
-    for (int r = 0; r < 3; r++) /* C = M B' */
-      for (int k = 0; k < 3; k++) C[3 * r + k] = M[3 * r] * B[3 * k] + M[3 * r + 1] * B[3 * k + 1] + M[3 * r + 2] * B[3 * k + 2];
-    normal_to(h, nrm);
-    mat_vec(C, nrm, y);
+    /* R234 = M R6' R5': its angle about h, from where it turns nrm */
+    mat_tvec(R5, nrm, x);
+    mat_tvec(R6, x, z);
+    mat_vec(M, z, y);
     sp1(h, nrm, y, &th);
-    /* K p4 = e^(-h1 q1) G (e^(h5 q5) e^(h6 q6))^-1 p4, and K = e^(h2 q2) e^(h3 q3) e^(h4 q4) */
-    turn(a->h[4], p5, -q5, p4, x);
-    turn(h6, p6, -q6, x, z);
-    mat_vec(GR, z, x);
-    add(x, Gp, x);
-    turn(h1, p1, -q1, x, Kp4);
-    double pp[3], qq[3], d[3], u[2];
-    sub(p4, p3, pp), sub(p2, p3, qq), sub(Kp4, p2, d);
+    /* K p4 = e^(-h1 q1) G (e^(h5 q5) e^(h6 q6))^-1 p4, and K = e^(h2 q2) e^(h3 q3) e^(h4 q4);
+       e^(-h q) x = R(h, q)' (x - p) + p */
+    sub(p4, p5, z), mat_tvec(R5, z, x), add(x, p5, x);
+    sub(x, p6, z), mat_tvec(R6, z, x), add(x, p6, x);
+    mat_vec(GR, x, z), add(z, Gp, z);
+    sub(z, p1, x), mat_tvec(R1, x, Kp4), add(Kp4, p1, Kp4);
+    sub(Kp4, p2, d);
     for (int j = 0, nj = sp3(a->h[2], pp, qq, norm(d), u); j < nj && n < MAXSOL; j++) {
       double V[3], q2;
       turn(a->h[2], p3, u[j], p4, V);
@@ -314,10 +340,11 @@ static int family_parallel(const ArmGeometry* a, const double* GR, const double*
   return n;
 }
 
-/* every solution of G (in the chain's order, each angle in (-pi, pi]); q0 the start */
-int sp_solve_all(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
-                 const double* q0_in, double out[MAXSOL][6]) {
-  double GR[9], Gp[3], q0[6], raw[MAXSOL][6];
+/* the raw solutions of G (in the solved order, unchecked) into raw, and G and q0 in
+   the solved order (G inverted on a reversed arm) into GR, Gp, q0 */
+static int raw_solutions(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
+                         const double* q0_in, double* GR, double* Gp, double* q0,
+                         double raw[MAXSOL][6]) {
   if (a->reverse) { /* G^-1 on the reversed arm */
     for (int i = 0; i < 3; i++)
       for (int j = 0; j < 3; j++) GR[3 * i + j] = GR_in[3 * j + i];
@@ -325,23 +352,40 @@ int sp_solve_all(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
     for (int i = 0; i < 3; i++) Gp[i] = -Gp[i];
     for (int i = 0; i < 6; i++) q0[i] = q0_in[5 - i];
   } else {
-    memcpy(GR, GR_in, sizeof GR), memcpy(Gp, Gp_in, sizeof Gp), memcpy(q0, q0_in, sizeof q0);
+    memcpy(GR, GR_in, 9 * sizeof(double)), memcpy(Gp, Gp_in, 3 * sizeof(double));
+    memcpy(q0, q0_in, 6 * sizeof(double));
   }
-  int nr = a->family == 0 ? family_wrist(a, GR, Gp, q0, raw) : family_parallel(a, GR, Gp, q0, raw);
-  int n = 0;
+  return a->family == 0 ? family_wrist(a, GR, Gp, q0, raw) : family_parallel(a, GR, Gp, q0, raw);
+}
+
+/* a raw solution in the chain's order, each angle in (-pi, pi] */
+static void chain_order(const ArmGeometry* a, const double* raw, double* q) {
+  for (int k = 0; k < 6; k++) q[k] = wrap(raw[a->reverse ? 5 - k : k]);
+}
+
+/* q is none of the n solutions in sol (no two angles within SAME, both in (-pi, pi]) */
+static int distinct(double sol[MAXSOL][6], int n, const double* q) {
+  for (int j = 0; j < n; j++) {
+    int same = 1;
+    for (int k = 0; k < 6 && same; k++) {
+      double d = fabs(q[k] - sol[j][k]);
+      same = d <= SAME || TWO_PI - d <= SAME;
+    }
+    if (same) return 0;
+  }
+  return 1;
+}
+
+/* every solution of G (in the chain's order, each angle in (-pi, pi]), each checked and
+   polished; q0 the start */
+int sp_solve_all(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
+                 const double* q0_in, double out[MAXSOL][6]) {
+  double GR[9], Gp[3], q0[6], raw[MAXSOL][6], q[6];
+  int nr = raw_solutions(a, GR_in, Gp_in, q0_in, GR, Gp, q0, raw), n = 0;
   for (int i = 0; i < nr; i++) {
     if (polish(a, raw[i], GR, Gp) > ACCEPT) continue;
-    double q[6];
-    for (int k = 0; k < 6; k++) q[k] = wrap(raw[i][a->reverse ? 5 - k : k]);
-    int dup = 0;
-    for (int j = 0; j < n && !dup; j++) {
-      dup = 1;
-      for (int k = 0; k < 6; k++) {
-        double d = fabs(q[k] - out[j][k]); /* both in (-pi, pi] */
-        if (d > SAME && TWO_PI - d > SAME) { dup = 0; break; }
-      }
-    }
-    if (!dup) memcpy(out[n++], q, sizeof q);
+    chain_order(a, raw[i], q);
+    if (distinct(out, n, q)) memcpy(out[n++], q, sizeof q);
   }
   return n;
 }
@@ -375,6 +419,10 @@ void sp_target(const ArmGeometry* a, const double* pos, const double* quat, cons
 /* angle q moved by a multiple of 2 pi into [lo, hi] (slack tol), nearest the start s;
    returns 0 where no shift fits */
 static int shift(double q, double s, double lo, double hi, double tol, double* out) {
+  if (fabs(s - q) < M_PI && q >= lo - tol && q <= hi + tol) { /* no shift: the common case */
+    *out = q < lo ? lo : (q > hi ? hi : q);
+    return 1;
+  }
   double k = round((s - q) / TWO_PI);
   if (isfinite(lo)) k = fmax(k, ceil((lo - tol - q) / TWO_PI));
   if (isfinite(hi)) k = fmin(k, floor((hi + tol - q) / TWO_PI));
@@ -384,39 +432,86 @@ static int shift(double q, double s, double lo, double hi, double tol, double* o
   return 1;
 }
 
+/* a solution with the ranges applied: its angles shifted (shift) or, out of range, the
+   shift nearest the range clipped into it; its distance to the start (sum of squares),
+   how far it leaves the ranges, whether it fits them */
+typedef struct {
+  double x[6], d, miss;
+  int ok;
+} Placed;
 
-/* Each solution's angles moved by multiples of 2 pi into their ranges nearest the
-   start (shift); the in-range solution nearest q0 (sum of squares) into out. With none
-   inside, out holds the solution whose angles (shifted nearest the ranges) leave them
-   least, clipped into them; with none at all, q0. */
-int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* L, const double* U,
-            double tol, double* out) {
-  int inside = 0;
-  double best = INFINITY, least = INFINITY, near[6];
-  memcpy(out, q0, 6 * sizeof(double));
-  for (int i = 0; i < n; i++) {
-    double x[6], d = 0.0, miss = 0.0;
-    int ok = 1;
-    for (int k = 0; k < 6; k++) {
-      if (!shift(sol[i][k], q0[k], L[k], U[k], tol, &x[k])) {
-        /* out of range: the shift nearest the range, clipped, and by how much */
-        double c = isfinite(L[k]) && isfinite(U[k]) ? 0.5 * (L[k] + U[k]) : q0[k];
-        double y = sol[i][k] + round((c - sol[i][k]) / TWO_PI) * TWO_PI;
-        miss += y < L[k] ? L[k] - y : y - U[k];
-        x[k] = y < L[k] ? L[k] : (y > U[k] ? U[k] : y);
-        ok = 0;
-      }
-      d += (x[k] - q0[k]) * (x[k] - q0[k]);
+static void place(const double* sol, const double* q0, const double* L, const double* U,
+                  double tol, Placed* p) {
+  p->d = 0.0, p->miss = 0.0, p->ok = 1;
+  for (int k = 0; k < 6; k++) {
+    if (!shift(sol[k], q0[k], L[k], U[k], tol, &p->x[k])) {
+      double c = isfinite(L[k]) && isfinite(U[k]) ? 0.5 * (L[k] + U[k]) : q0[k];
+      double y = sol[k] + round((c - sol[k]) / TWO_PI) * TWO_PI;
+      p->miss += y < L[k] ? L[k] - y : y - U[k];
+      p->x[k] = y < L[k] ? L[k] : (y > U[k] ? U[k] : y);
+      p->ok = 0;
     }
-    if (ok) {
-      inside++;
-      if (d < best) best = d, memcpy(out, x, sizeof x);
-    } else if (!inside && miss < least) {
-      least = miss, memcpy(near, x, sizeof x);
+    p->d += (p->x[k] - q0[k]) * (p->x[k] - q0[k]);
+  }
+}
+
+/* The pick of n placed solutions: the in-range one nearest the start; with none inside,
+   the one that leaves the ranges least (clipped into them); -1 with none at all. Into
+   *inside how many fit the ranges. */
+static int choose(const Placed* p, int n, int* inside) {
+  int best = -1, near = -1;
+  *inside = 0;
+  for (int i = 0; i < n; i++) {
+    if (p[i].ok) {
+      ++*inside;
+      if (best < 0 || p[i].d < p[best].d) best = i;
+    } else if (!*inside && (near < 0 || p[i].miss < p[near].miss)) {
+      near = i;
     }
   }
-  if (!inside && n) memcpy(out, near, sizeof near);
-  return inside;
+  return *inside ? best : near;
+}
+
+/* The solutions of G unchecked and distinct (in the chain's order), each angle moved by
+   multiples of 2 pi into its range nearest the start (shift), and the in-range one
+   nearest q0 (sum of squares) picked; with none inside, the one whose angles (shifted
+   nearest the ranges) leave them least, clipped into them; with none at all, q0. Only
+   the pick is checked and polished: a pick off by more than ACCEPT is dropped and the
+   next one picked, so an answer is never a spurious root (one pose error a target
+   instead of one a solution). The pick into out; returns how many solutions fit the
+   ranges, *found how many there were (those never picked unchecked). */
+int sp_solve_pick(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
+                  const double* q0_in, const double* L, const double* U, double tol, double* out,
+                  int* found) {
+  double GR[9], Gp[3], q0[6], raw[MAXSOL][6], sol[MAXSOL][6];
+  Placed placed[MAXSOL];
+  int from[MAXSOL], checked[MAXSOL], n = 0, inside = 0;
+  int nr = raw_solutions(a, GR_in, Gp_in, q0_in, GR, Gp, q0, raw);
+  for (int i = 0; i < nr; i++) {
+    chain_order(a, raw[i], sol[n]);
+    if (!distinct(sol, n, sol[n])) continue;
+    place(sol[n], q0_in, L, U, tol, &placed[n]);
+    from[n] = i, checked[n] = 0, n++;
+  }
+  for (;;) {
+    int k = choose(placed, n, &inside);
+    if (k < 0 || checked[k]) {
+      memcpy(out, k < 0 ? q0_in : placed[k].x, 6 * sizeof(double));
+      *found = n;
+      return inside;
+    }
+    if (polish(a, raw[from[k]], GR, Gp) > ACCEPT) { /* a spurious root: dropped */
+      n--;
+      memmove(placed + k, placed + k + 1, (n - k) * sizeof placed[0]);
+      memmove(from + k, from + k + 1, (n - k) * sizeof from[0]);
+      memmove(checked + k, checked + k + 1, (n - k) * sizeof checked[0]);
+      continue;
+    }
+    double q[6];
+    chain_order(a, raw[from[k]], q);
+    place(q, q0_in, L, U, tol, &placed[k]);
+    checked[k] = 1;
+  }
 }
 
 /* ------------------------------------------------------------------ a 7th joint, locked */
@@ -465,13 +560,12 @@ int sp_locked_solutions(const LockedArm* a, const double* GR, const double* Gp, 
    solutions there were. */
 static int locked_at(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
                      const double* L, const double* U, double tol, double t, double* out, int* n) {
-  double GR6[9], Gp6[3], s6[6], l6[6], u6[6], pick[6], sol[MAXSOL][6];
+  double GR6[9], Gp6[3], s6[6], l6[6], u6[6], got[6];
   int k = a->locked;
   unlock(a->h, a->p, k, t, GR, Gp, GR6, Gp6);
   drop(q0, k, s6), drop(L, k, l6), drop(U, k, u6);
-  *n = sp_solve_all(&a->arm, GR6, Gp6, s6, sol);
-  int inside = sp_pick(sol, *n, s6, l6, u6, tol, pick);
-  insert(pick, k, t, out);
+  int inside = sp_solve_pick(&a->arm, GR6, Gp6, s6, l6, u6, tol, got, n);
+  insert(got, k, t, out);
   return inside;
 }
 

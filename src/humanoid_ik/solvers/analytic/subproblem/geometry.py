@@ -17,7 +17,8 @@ chain):
   (Kinova j2s6s200, most industrial arms), ``h1 || h2``, or two neighbouring axes that
   meet (``h1`` and ``h2``, ``h2`` and ``h3``);
 - ``three parallel axes``: ``h2 || h3 || h4`` (the UR family), with ``h1`` and ``h5``
-  not parallel to them; the wrist may be anything.
+  not parallel to them; the wrist may be anything (where axes 5 and 6 meet, as on the UR
+  arms, ``q1`` and ``q5`` come from two SP4s instead of SP6's quartic).
 
 A 7-hinge chain is solved with its last (else its first) joint *locked*: if the six
 other joints are a family above, the locked joint is searched (in C): its start value
@@ -80,14 +81,16 @@ class Family(NamedTuple):
     family: int
     """0: a spherical wrist, 1: three parallel axes (as the C module numbers them)."""
     case: int
-    """The wrist point's placement: 0 ``h2 || h3``, 1 ``h1 || h2``, 2 ``h1`` and ``h2``
-    meet, 3 ``h2`` and ``h3`` meet (family 0; 0 for family 1)."""
+    """Family 0, the wrist point's placement: 0 ``h2 || h3``, 1 ``h1 || h2``, 2 ``h1``
+    and ``h2`` meet, 3 ``h2`` and ``h3`` meet. Family 1: 0 in general, 1 where axes 5 and 6
+    meet."""
     reverse: bool
     """The chain is solved reversed (base and end swapped)."""
     wrist: NDArray[np.float64]
     """The wrist point (family 0) in the base frame, in the solved order."""
     meet: NDArray[np.float64]
-    """Where the two placing axes meet (cases 2 and 3)."""
+    """Where the two placing axes meet (family 0, cases 2 and 3), or axes 5 and 6
+    (family 1, case 1)."""
     name: str
     """The family in words, in the chain's own joint numbers."""
     locked: int = -1
@@ -204,6 +207,9 @@ def _family(h: NDArray, p: NDArray, reverse: bool, offset: int) -> Family | None
         and not _parallel(h[4], h[1])
     ):
         name = f"three parallel axes ({axes(2, 3, 4, sep=' || ')})"
+        O, _ = meeting(p[4:], h[4:])
+        if O is not None and not _parallel(h[4], h[5]):  # SP4 + SP4 for q1, q5, not SP6
+            return Family(1, 1, reverse, zero, O, f"{name}, {axes(5, 6, sep=' and ')} meet")
         return Family(1, 0, reverse, zero, zero, name)
     return None
 

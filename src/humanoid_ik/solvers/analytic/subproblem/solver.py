@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.types import IKResult, Status, Target, collector_held
+from humanoid_ik.core.types import BatchResults, IKResult, Status, Target
 from humanoid_ik.errors import SolverError
 from humanoid_ik.solvers.analytic.closed_form.numeric import RANGE_TOL
 from humanoid_ik.solvers.analytic.subproblem.geometry import subproblem_cache
@@ -42,7 +42,8 @@ class Subproblem(Solver):
     family): :func:`~.geometry.family_of`. Every joint vector that reaches the target
     (up to 8) is found in C; each angle is moved by a multiple of 2 pi into its range
     (nearest the start where several fit), and the in-range solution nearest the start
-    (sum of squared differences) is returned.
+    (sum of squared differences) is returned, checked and polished by the arm's own FK
+    (a pick that fails the check is dropped for the next).
 
     A 7-hinge chain whose last (else first) joint, held, leaves six of such a family
     (Panda, Talos's arm) is solved with that joint *searched*: its start value first,
@@ -62,9 +63,10 @@ class Subproblem(Solver):
     Statuses: ``converged``; ``unreachable`` for a target no joint vector reaches (the
     start is returned) or one whose every solution leaves the ranges (the solution that
     leaves them least, clipped into them, is returned). ``details``: ``solutions`` (how
-    many reach the target), ``inside`` (how many of them are in range) and, on a 7-hinge
-    chain, ``tried`` (the values of the locked joint tried; ``solutions`` is then the
-    most at one value, ``inside`` the count at the value taken).
+    many distinct joint vectors the subproblems give), ``inside`` (how many of them are
+    in range) and, on a 7-hinge chain, ``tried`` (the values of the locked joint tried;
+    ``solutions`` is then the most at one value, ``inside`` the count at the value
+    taken).
 
     Caches: the chain keeps its family and the compiled arm
     (:class:`~.geometry.SubproblemCache`); :meth:`prepare` builds them.
@@ -150,43 +152,44 @@ class Subproblem(Solver):
             q, converged, 1, ep, er, status, self.name, message, MappingProxyType(details)
         )
 
-    def results(
+    def batch(
         self,
         n: int,
         q: NDArray[np.float64],
         counts: NDArray[np.float64],
         info: NDArray[np.float64],
         extra: Mapping[str, Any] | None = None,
-    ) -> list[IKResult]:
-        """:meth:`result` for each row of :meth:`solve_many`'s answers ``q`` (read-only),
-        ``counts`` and ``info``: a converged row made from a template and details shared
-        by the rows with the same counts (0.5 us a row, a fifth of :meth:`result`'s),
-        the others by :meth:`result`."""
+    ) -> BatchResults:
+        """:meth:`solve_many`'s answers ``q`` (read-only), ``counts`` and ``info`` as a
+        batch: its arrays at once, each row's :meth:`result` when read (a converged row
+        made from a template, with details shared by the rows of equal counts: 0.5 us a
+        row, a fifth of :meth:`result`'s)."""
         template = {
             "converged": True, "iterations": 1, "status": Status.CONVERGED,
             "solver": self.name, "message": "",
         }  # fmt: skip
         shared: dict[tuple[int, int, int], Mapping[str, Any]] = {}
-        new, out = object.__new__, []
-        rows = zip(q, counts.astype(int).tolist(), info.tolist(), strict=True)
-        with collector_held():
-            for qi, (found, inside, tried), (ok, _its, ep, er) in rows:
-                if not (inside and ok == 1.0):
-                    out.append(self.result(n, qi, (found, inside, tried), False, ep, er, extra))
-                    continue
-                key = (found, inside, tried)
-                details = shared.get(key)
-                if details is None:
-                    d = {"solutions": found, "inside": inside}
-                    if n == 7:
-                        d["tried"] = tried
-                    details = shared[key] = MappingProxyType({**d, **(extra or {})})
-                r = new(IKResult)
-                r.__dict__.update(
-                    template, q=qi, position_error=ep, orientation_error=er, details=details
-                )
-                out.append(r)
-        return out
+        converged = (counts[:, 1] > 0) & (info[:, 0] == 1.0)
+
+        def row(i: int) -> IKResult:
+            found, inside, tried = (int(c) for c in counts[i])
+            _ok, _its, ep, er = info[i].tolist()
+            if not converged[i]:
+                return self.result(n, q[i], (found, inside, tried), _ok == 1.0, ep, er, extra)
+            key = (found, inside, tried)
+            details = shared.get(key)
+            if details is None:
+                d = {"solutions": found, "inside": inside}
+                if n == 7:
+                    d["tried"] = tried
+                details = shared[key] = MappingProxyType({**d, **(extra or {})})
+            r = object.__new__(IKResult)
+            r.__dict__.update(
+                template, q=q[i], position_error=ep, orientation_error=er, details=details
+            )
+            return r
+
+        return BatchResults(len(q), row, (q, converged, info[:, 2].copy(), info[:, 3].copy()))
 
     def solve_many(
         self,

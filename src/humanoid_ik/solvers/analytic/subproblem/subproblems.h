@@ -42,10 +42,11 @@ void sp_target(const ArmGeometry* a, const double* pos, const double* quat, cons
 int sp_solve_all(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
                  double out[MAXSOL][6]);
 
-/* the ranges applied to n solutions (see families.c); the pick into out; returns how
-   many fit the ranges */
-int sp_pick(double sol[MAXSOL][6], int n, const double* q0, const double* lower,
-            const double* upper, double tol, double* out);
+/* the solutions of G with the ranges applied and only the pick checked (see
+   families.c); the pick into out; returns how many fit the ranges, *found how many
+   solutions there were */
+int sp_solve_pick(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
+                  const double* lower, const double* upper, double tol, double* out, int* found);
 
 /* every solution (7 angles) of G7 with the locked joint at t (the others in (-pi, pi]) */
 int sp_locked_solutions(const LockedArm* a, const double* GR, const double* Gp, const double* q0,
