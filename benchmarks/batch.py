@@ -8,8 +8,11 @@ random in-range joints, every solve from the home pose. Each timed call follows 
 untimed one on the first ``WARM`` targets with the same workers, which builds what the
 robot state keeps for later calls (``lm``'s kernel per thread, a copy of the model:
 about 30 ms each on G1; its seed library, about 60 ms); ``--cold`` times the first call
-instead. Prints targets/s by wall time and the calling process's CPU time
-(``time.process_time``: its threads' too)::
+instead. Each arm's targets go in both forms ``solve_batch`` takes: :class:`Target`
+objects, and positions ``(N, 3)`` with quaternions ``(N, 4)`` (which stay arrays on
+``subproblem``'s path); the solved share is read from the batch's arrays, so no
+:class:`IKResult` is made. Prints targets/s by wall time and the calling process's CPU
+time (``time.process_time``: its threads' too)::
 
     python benchmarks/batch.py --targets 100000 [--cold]
 """
@@ -49,18 +52,28 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cold", action="store_true", help="time the first call (no warm-up)")
     args = ap.parse_args()
-    print("| arm | solver | workers | solved | targets/s wall | CPU s (caller) |")
-    print("|---|---|---|---|---|---|")
+    print("| arm | solver | targets as | workers | solved | targets/s wall | CPU s (caller) |")
+    print("|---|---|---|---|---|---|---|")
     for name, chain in arms().items():
         targets = fk_poses(chain, args.targets, args.seed)
-        for workers in (1, 2):
-            if not args.cold:
-                solve_batch(chain, targets[:WARM], "auto", q0=chain.q_home, workers=workers)
-            t0, c0 = time.perf_counter(), time.process_time()
-            res = solve_batch(chain, targets, "auto", q0=chain.q_home, workers=workers)
-            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-            ok = sum(r.converged for r in res) / len(res)
-            print(f"| {name} | auto | {workers} | {ok:.1%} | {len(res) / wall:,.0f} | {cpu:.2f} |")
+        p = np.array([t.position for t in targets])
+        qt = np.array([t.quat for t in targets])
+        forms = {"objects": (targets, None), "arrays": (p, qt)}
+        for form, (given, quats) in forms.items():
+            for workers in (1, 2):
+                if not args.cold:
+                    solve_batch(
+                        chain, given[:WARM], quats=None if quats is None else quats[:WARM],
+                        q0=chain.q_home, workers=workers,
+                    )  # fmt: skip
+                t0, c0 = time.perf_counter(), time.process_time()
+                res = solve_batch(chain, given, quats=quats, q0=chain.q_home, workers=workers)
+                ok = res.converged.mean()  # the batch's arrays: no result object made
+                wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+                print(
+                    f"| {name} | auto | {form} | {workers} | {ok:.1%} "
+                    f"| {len(res) / wall:,.0f} | {cpu:.2f} |"
+                )
     bundled = Chain()
     targets = fk_poses(bundled, args.targets, args.seed)
     p = np.array([t.position for t in targets])
@@ -69,7 +82,7 @@ def main() -> None:
     _q, ok = closed_form_batch(bundled, p, qt, bundled.q_home)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     print(
-        f"| bundled arm | closed_form (vectorised) | 1 | {ok.mean():.1%} "
+        f"| bundled arm | closed_form (vectorised) | arrays | 1 | {ok.mean():.1%} "
         f"| {len(p) / wall:,.0f} | {cpu:.2f} |"
     )
 

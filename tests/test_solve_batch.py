@@ -4,6 +4,10 @@ the robot), on a real arm (G1's left arm, from example-robot-data)."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -127,9 +131,9 @@ def test_positions_as_an_array_and_options(g1_arm):
         (
             {"targets": np.zeros((3, 2))},
             TargetError,
-            r"positions \(N, 3\) \[m\], got shape \(3, 2\)",
+            r"positions must have shape \(N, 3\) \[m\], got \(3, 2\)",
         ),
-        ({"quats": np.zeros((2, 4))}, TargetError, r"quats must be \(3, 4\) wxyz"),
+        ({"quats": np.zeros((2, 4))}, TargetError, r"quats must have shape \(3, 4\) wxyz"),
         ({"solver": "nope"}, SolverError, "solver 'nope' unknown; solvers: auto"),
     ],
 )
@@ -224,3 +228,22 @@ def test_batches_of_results_as_arrays(g1_arm):
     np.testing.assert_array_equal(batch.q[2], batch[2].q)
     np.testing.assert_array_equal(batch.position_error, [r.position_error for r in batch])
     assert batch.converged.tolist() == [r.converged for r in batch] == [True] * 4
+
+
+@pytest.mark.slow
+def test_the_batch_benchmark_runs_every_arm_and_form():
+    """``benchmarks/batch.py`` on a few targets: one row per arm, target form and worker
+    count (G1's arm and UR5, objects and arrays, 1 and 2), every target solved, and the
+    bundled arm's vectorised closed form."""
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run(
+        [sys.executable, str(root / "benchmarks" / "batch.py"), "--targets", "300"],
+        capture_output=True, text=True, timeout=600, cwd=root,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    rows = [r.split(" | ") for r in out.stdout.splitlines()[2:]]
+    keys = [(r[0].lstrip("| "), r[2], r[3]) for r in rows]
+    want = [(arm, form, w) for arm in ("g1 left arm", "ur5") for form in ("objects", "arrays")
+            for w in ("1", "2")]  # fmt: skip
+    assert keys == [*want, ("bundled arm", "arrays", "1")]
+    assert all(r[4] == "100.0%" and int(r[5].replace(",", "")) > 0 for r in rows)

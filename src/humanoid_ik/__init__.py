@@ -30,6 +30,7 @@ _EXPORTS = {
     "load_model": "humanoid_ik.core.models",
     "Robot": "humanoid_ik.core.robot",
     "look_at": "humanoid_ik.core.rotations",
+    "BatchResults": "humanoid_ik.core.types",
     "IKResult": "humanoid_ik.core.types",
     "Status": "humanoid_ik.core.types",
     "Target": "humanoid_ik.core.types",
@@ -133,7 +134,7 @@ if TYPE_CHECKING:
     from humanoid_ik.core.models import bundled_model_path, load_model
     from humanoid_ik.core.robot import Robot
     from humanoid_ik.core.rotations import look_at
-    from humanoid_ik.core.types import IKResult, Status, Target
+    from humanoid_ik.core.types import BatchResults, IKResult, Status, Target
     from humanoid_ik.errors import (
         ChainError,
         HumanoidIKError,

@@ -193,15 +193,18 @@ def quat_mul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float
 
 
 def quat_to_mat(quat: ArrayLike) -> NDArray[np.float64]:
-    """Rotation matrix of a unit wxyz quaternion."""
-    w, x, y, z = np.asarray(quat, dtype=np.float64)
-    return np.array(
+    """Rotation matrix ``(3, 3)`` of a unit wxyz quaternion ``(4,)``; of many ``(N, 4)``,
+    ``(N, 3, 3)``, each the bits of its own call (the same operations, row by row)."""
+    q = np.asarray(quat, dtype=np.float64)
+    w, x, y, z = q if q.ndim == 1 else q.T
+    m = np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
             [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
             [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
         ]
     )
+    return m if q.ndim == 1 else np.ascontiguousarray(np.moveaxis(m, -1, 0))
 
 
 def mat_to_quat(R: ArrayLike) -> NDArray[np.float64]:

@@ -18,7 +18,7 @@ from humanoid_ik.errors import TargetError
 
 if TYPE_CHECKING:
     from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.rotations import normalize_quat, quat_to_mat
+from humanoid_ik.core.rotations import UNIT_TOL, normalize_quat, quat_norms, quat_to_mat
 
 __all__ = [
     "BatchResults",
@@ -29,6 +29,7 @@ __all__ = [
     "TARGET_KINDS",
     "Target",
     "collector_held",
+    "target_rows",
 ]
 
 
@@ -180,6 +181,39 @@ def _point(what: str, value: ArrayLike) -> NDArray[np.float64]:
 
 
 _NO_DETAILS: Mapping[str, Any] = MappingProxyType({})
+
+
+def target_rows(
+    positions: ArrayLike, quats: ArrayLike | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]:
+    """Many targets as arrays: positions ``(N, 3)`` [m] and wxyz quaternions ``(N, 4)``
+    (or ``None``), checked row by row as :class:`Target` checks one (a bad row raises
+    the error its ``Target`` gives, naming its value). Returns new arrays: the positions,
+    the quaternions as given and normalised as ``Target`` normalises one (the same bits:
+    :func:`~humanoid_ik.core.rotations.quat_norms`), ``None`` twice without them.
+
+    Raises:
+        TargetError: wrong shapes, a value that is not a number, or a bad row.
+    """
+    p = float_array("target positions", positions)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise TargetError(f"positions must have shape (N, 3) [m], got {p.shape}")
+    bad = ~(np.abs(p) <= MAX_COORDINATE).all(axis=1)  # NaN fails it too
+    if bad.any():
+        Target(p[np.flatnonzero(bad)[0]])  # raises the row's error
+    if quats is None:
+        return p, None, None
+    qt = float_array("quaternions", quats)
+    if qt.shape != (len(p), 4):
+        raise TargetError(
+            f"quats must have shape ({len(p)}, 4) wxyz to go with the positions, got {qt.shape}"
+        )
+    norms = quat_norms(qt)
+    bad = ~(np.abs(norms - 1.0) <= UNIT_TOL)  # NaN, inf and zero fail it too
+    if bad.any():
+        i = np.flatnonzero(bad)[0]
+        Target(p[i], qt[i])  # raises the row's error
+    return p, qt, qt / norms[:, None]
 
 
 @contextmanager

@@ -25,17 +25,16 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping, Sequence
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
-from humanoid_ik.core.checks import float_array
 from humanoid_ik.core.robot import Robot
-from humanoid_ik.core.rotations import UNIT_TOL, quat_norms
-from humanoid_ik.core.types import MAX_COORDINATE, BatchResults, IKResult, Target
+from humanoid_ik.core.rotations import quat_to_mat
+from humanoid_ik.core.types import BatchResults, IKResult, Target, target_rows
 from humanoid_ik.errors import SolverError, TargetError
 from humanoid_ik.solvers.analytic.subproblem import Subproblem
 from humanoid_ik.solvers.auto import Auto
@@ -52,48 +51,68 @@ _WORKER: dict[str, Any] = {}
 """A worker process's chain, start and solver (set once by :func:`_start_worker`)."""
 
 
-Given = tuple[list[Target] | None, NDArray[np.float64], NDArray[np.float64] | None]
-"""Targets as given (:func:`_given`): the objects, or ``None`` with the positions ``(N,
-3)`` and the quaternions ``(N, 4)`` as given (or ``None``)."""
+class _Targets:
+    """A batch's targets, checked: as arrays for the compiled paths (:meth:`poses`,
+    :attr:`packed`) and one by one as :class:`Target` objects (:meth:`target`)."""
 
+    def __init__(self, targets: Sequence[Target] | ArrayLike, quats: ArrayLike | None):
+        """Target objects, or positions ``(N, 3)`` with orientations ``(N, 4)`` wxyz or
+        ``None``, checked as arrays (:func:`~humanoid_ik.core.types.target_rows`: a bad
+        row raises the error its ``Target`` gives; the quaternions normalised as
+        ``Target`` normalises one)."""
+        self._objects: list[Target] | None = None
+        self._packed: Packed | None = None
+        self._unit: NDArray[np.float64] | None = None
+        if isinstance(targets, list | tuple) and all(isinstance(t, Target) for t in targets):
+            if quats is not None:
+                raise TargetError("quats go with positions (N, 3), not with Target objects")
+            self._objects = list(targets)
+            self.count = len(self._objects)
+            return
+        self._positions, self._quats, self._unit = target_rows(cast(ArrayLike, targets), quats)
+        self.count = len(self._positions)
 
-def _given(targets: Sequence[Target] | ArrayLike, quats: ArrayLike | None) -> Given:
-    """``targets`` checked: a sequence of :class:`Target` objects, or positions ``(N, 3)``
-    with orientations ``(N, 4)`` wxyz or ``None``, checked as arrays (a bad row raises
-    the error its ``Target`` would)."""
-    if isinstance(targets, Sequence) and all(isinstance(t, Target) for t in targets):
-        if quats is not None:
-            raise TargetError("quats go with positions (N, 3), not with Target objects")
-        return list(targets), np.empty((0, 3)), None
-    p = float_array("target positions", targets)
-    if p.ndim != 2 or p.shape[1] != 3:
-        raise TargetError(
-            f"targets must be Target objects or positions (N, 3) [m], got shape {p.shape}"
-        )
-    bad = ~(np.abs(p) <= MAX_COORDINATE).all(axis=1)  # NaN fails it too
-    if bad.any():
-        Target(p[np.flatnonzero(bad)[0]])  # raises the row's error
-    if quats is None:
-        return None, p, None
-    qt = float_array("quaternions", quats)
-    if qt.shape != (len(p), 4):
-        raise TargetError(
-            f"quats must be ({len(p)}, 4) wxyz to go with the positions, got {qt.shape}"
-        )
-    norms = quat_norms(qt)
-    bad = ~(np.abs(norms - 1.0) <= UNIT_TOL)  # NaN, inf and zero fail it too
-    if bad.any():
-        i = np.flatnonzero(bad)[0]
-        Target(p[i], qt[i])  # raises the row's error
-    return None, p, qt
+    @property
+    def packed(self) -> Packed:
+        """Positions ``(N, 3)``, orientations ``(N, 4)``, their rotations ``(N, 3, 3)``
+        (``quat_to_mat``, row by row the bits of ``Target``'s) and poles ``(N, 3)``,
+        NaN rows where a target has none (read-only)."""
+        if self._packed is None:
+            if self._objects is not None:
+                self._packed = _packed(self._objects)
+            else:
+                p, n = self._positions, self.count
+                nan = np.full((n, 3), np.nan)
+                if self._unit is None:
+                    self._packed = (p, np.full((n, 4), np.nan), np.full((n, 3, 3), np.nan), nan)
+                else:
+                    self._packed = (p, self._unit, quat_to_mat(self._unit), nan)
+                for a in self._packed:
+                    a.setflags(write=False)
+        return self._packed
 
+    def poses(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The positions ``(N, 3)`` and unit quaternions ``(N, 4)`` (no rotations made)."""
+        if self._objects is None and self._unit is not None:
+            return self._positions, self._unit
+        positions, quats, _, _ = self.packed
+        return positions, quats
 
-def _target(given: Given, i: int) -> Target:
-    """Target ``i`` of :func:`_given`'s targets."""
-    objects, p, qt = given
-    if objects is not None:
-        return objects[i]
-    return Target(p[i], None if qt is None else qt[i])
+    def target(self, i: int) -> Target:
+        """Target ``i``, as given or as ``Target(position, quat)`` of its rows."""
+        if self._objects is not None:
+            return self._objects[i]
+        return Target(self._positions[i], None if self._quats is None else self._quats[i])
+
+    def posed(self) -> NDArray[np.bool_]:
+        """Which targets have an orientation ``(N,)``."""
+        if self._objects is not None:
+            return np.array([t.quat is not None for t in self._objects], dtype=bool)
+        return np.full(self.count, self._unit is not None)
+
+    def any_pole(self) -> bool:
+        """Whether some target has an elbow pole (arrays have none)."""
+        return self._objects is not None and any(t.pole is not None for t in self._objects)
 
 
 def _start_worker(
@@ -142,17 +161,17 @@ def _solve_chunk(chunk: Packed) -> tuple[NDArray[np.float64], list[tuple[Any, ..
     return q, rest
 
 
-def _compiled_lm(chain: Chain, solver: Solver, targets: list[Target]) -> LM | None:
+def _compiled_lm(chain: Chain, solver: Solver, targets: _Targets) -> LM | None:
     """The ``lm`` that solves every target when it is ``solver`` itself or ``auto``'s
     choice for each target's task, and no target has a pole (``lm`` honours one in
     Python); else ``None``."""
-    if any(t.pole is not None for t in targets):
+    if targets.any_pole():
         return None
     if type(solver) is LM:
         return solver
     if type(solver) is not Auto:
         return None
-    tasks = {t.is_pose for t in targets}
+    tasks = set(targets.posed().tolist())
     chosen = {solver.choice(chain, pose) for pose in tasks}
     if len(chosen) != 1:
         return None
@@ -164,24 +183,25 @@ def _solve_compiled(
     chain: Chain,
     solver: Solver,
     lm: LM,
-    targets: list[Target],
+    targets: _Targets,
     start: NDArray[np.float64],
     threads: int,
 ) -> list[IKResult]:
-    """``solve(chain, target, solver, q0=start)`` for each target, the compiled loop
-    solving them all (:meth:`LM.solve_many`, on ``threads`` threads): each converged
-    answer is wrapped as ``lm`` (and ``auto``) wrap it. For ``auto``, the pose targets
-    ``lm`` missed go to its retry (:attr:`Auto.retry`) in the compiled loop as well; a
-    target still missed is solved again by the one call, which measures it (the same
-    starts give the same pose: only the result is made anew)."""
-    if not targets:
+    """``solve(chain, target, solver, q0=start)`` for each target but the first (which
+    the caller solved), the compiled loop solving them all (:meth:`LM.solve_many`, on
+    ``threads`` threads): each converged answer is wrapped as ``lm`` (and ``auto``) wrap
+    it. For ``auto``, the pose targets ``lm`` missed go to its retry
+    (:attr:`Auto.retry`) in the compiled loop as well; a target still missed is solved
+    again by the one call, which measures it (the same starts give the same pose: only
+    the result is made anew)."""
+    if targets.count < 2:
         return []
     auto = type(solver) is Auto
     chain.claim()
     try:
         chain.sync()
         q0 = chain.clip(check_start(chain, start))
-        positions, quats, rotations, _ = _packed(targets)
+        positions, quats, rotations, _ = (a[1:] for a in targets.packed)
         q, info = lm.solve_many(chain, positions, quats, rotations, q0, threads)
         posed = ~np.isnan(quats[:, 0])
         again = np.flatnonzero((info[:, 0] != 1.0) & posed) if auto else np.empty(0, int)
@@ -204,21 +224,18 @@ def _solve_compiled(
                 results[i] = row
                 info[i, 0] = 1.0
     for i in np.flatnonzero(info[:, 0] != 1.0).tolist():  # solved again by the one call
-        results[i] = solve(chain, targets[i], solver, q0=start)
+        results[i] = solve(chain, targets.target(i + 1), solver, q0=start)
     last = results[-1]
     if last.converged:
         chain.set_q(last.q)  # the scratch data at the last answer, as after the one calls
     return results
 
 
-def _compiled_subproblem(chain: Chain, solver: Solver, given: Given) -> Subproblem | None:
+def _compiled_subproblem(chain: Chain, solver: Solver, targets: _Targets) -> Subproblem | None:
     """The ``subproblem`` that solves every target when it is ``solver`` itself or
     ``auto``'s choice for pose targets, every target is a pose and none has a pole;
     else ``None``."""
-    objects, _, qt = given
-    if objects is None and qt is None:
-        return None
-    if objects is not None and any(t.quat is None or t.pole is not None for t in objects):
+    if targets.any_pole() or not targets.posed().all():
         return None
     if type(solver) is Subproblem:
         return solver
@@ -232,21 +249,15 @@ def _solve_exact(
     chain: Chain,
     solver: Solver,
     exact: Subproblem,
-    given: Given,
+    targets: _Targets,
     start: NDArray[np.float64],
     threads: int,
 ) -> BatchResults:
     """``solve(chain, target, solver, q0=start)`` for each pose target, ``subproblem``
     solving them all in C (:meth:`Subproblem.solve_many`, on ``threads`` threads), each
-    result made as the one call makes it (and wrapped as ``auto`` wraps it) when read.
-    Targets given as arrays stay arrays: their quaternions normalised as
-    :class:`Target` normalises one (:func:`~humanoid_ik.core.rotations.quat_norms`)."""
-    objects, positions, quats = given
-    if objects is not None:
-        positions, quats, _, _ = _packed(objects)
-    else:
-        assert quats is not None
-        quats = quats / quat_norms(quats)[:, None]
+    result made as the one call makes it (and wrapped as ``auto`` wraps it) when read:
+    targets given as arrays stay arrays."""
+    positions, quats = targets.poses()
     chain.claim()
     try:
         chain.sync()
@@ -332,33 +343,34 @@ def solve_batch(
     """
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
         raise SolverError(f"workers must be an integer >= 0 (0: one per core), got {workers!r}")
-    given = _given(targets, quats)
-    count = len(given[0]) if given[0] is not None else len(given[1])
+    given = _Targets(targets, quats)
     start = chain.q if q0 is None else np.asarray(q0, dtype=np.float64)
-    if not count:
+    if not given.count:
         return BatchResults.of([])
-    n_workers = min(int(workers) or (os.cpu_count() or 1), count)
+    n_workers = min(int(workers) or (os.cpu_count() or 1), given.count)
     qpos = chain.data.qpos.copy()  # the robot's pose the workers copy, before any solve
     # checks solver and start
-    first = solve(chain, _target(given, 0), solver, q0=start, **options)
+    first = solve(chain, given.target(0), solver, q0=start, **options)
     s = solver_for(solver, options) if isinstance(solver, str) else solver
     exact = _compiled_subproblem(chain, s, given)
     if exact is not None:
         return _solve_exact(chain, s, exact, given, start, n_workers)
-    items = given[0] if given[0] is not None else [_target(given, i) for i in range(count)]
-    compiled = _compiled_lm(chain, s, items)
+    compiled = _compiled_lm(chain, s, given)
     if compiled is not None:
-        rest = _solve_compiled(chain, s, compiled, items[1:], start, n_workers)
+        rest = _solve_compiled(chain, s, compiled, given, start, n_workers)
         return BatchResults.of([first, *rest])
     if n_workers <= 1:
-        rest = [solve(chain, t, solver, q0=start, **options) for t in items[1:]]
+        rest = [
+            solve(chain, given.target(i), solver, q0=start, **options)
+            for i in range(1, given.count)
+        ]
         return BatchResults.of([first, *rest])
     # imported here: a solve without workers (every import humanoid_ik) needs neither
     import multiprocessing as mp
     import tempfile
     from concurrent.futures import ProcessPoolExecutor
 
-    packed = _packed(items[1:])
+    packed = tuple(a[1:] for a in given.packed)
     size = -(-len(packed[0]) // (n_workers * CHUNKS_PER_WORKER))
     chunks = [tuple(a[i : i + size] for a in packed) for i in range(0, len(packed[0]), size)]
     methods = mp.get_all_start_methods()

@@ -198,8 +198,9 @@ static int chain_bodies(const mjModel* m, const Problem* p, int* path, int* movi
 /* mj_kinematics's frames (xpos, xquat, xmat, and each joint's xanchor and xaxis) of the
    `count` bodies of `path`, each from its parent's frame, its qpos (or its mocap pose),
    with the same operations in the same order as mj_kinematics (its first part): the
-   same bits. Nothing else is computed: the kernel's own data serves this loop only. */
-static void chain_kinematics(const mjModel* m, mjData* d, const int* path, int count) {
+   same bits. Nothing else is computed: the kernel's own data serves this loop only.
+   Without `axes` the joints' xaxis is not computed (a measure needs no Jacobian). */
+static void chain_kinematics(const mjModel* m, mjData* d, const int* path, int count, int axes) {
   for (int k = 0; k < count; k++) {
     int i = path[k], pid = m->body_parentid[i];
     int adr = m->body_jntadr[i], num = m->body_jntnum[i];
@@ -233,7 +234,7 @@ static void chain_kinematics(const mjModel* m, mjData* d, const int* path, int c
     for (int j = adr; j < adr + num; j++) {
       int qadr = m->jnt_qposadr[j];
       mjtNum xanchor[3], xaxis[3];
-      mju_rotVecQuat(xaxis, m->jnt_axis + 3 * j, xquat);
+      if (axes) mju_rotVecQuat(xaxis, m->jnt_axis + 3 * j, xquat);
       mju_rotVecQuat(xanchor, m->jnt_pos + 3 * j, xquat);
       mju_addTo3(xanchor, xpos);
       if (m->jnt_type[j] == mjJNT_SLIDE) {
@@ -251,7 +252,7 @@ static void chain_kinematics(const mjModel* m, mjData* d, const int* path, int c
         mju_sub3(xpos, xanchor, vec);
       }
       mju_copy3(d->xanchor + 3 * j, xanchor);
-      mju_copy3(d->xaxis + 3 * j, xaxis);
+      if (axes) mju_copy3(d->xaxis + 3 * j, xaxis);
     }
     mju_normalize4(xquat);
     mju_copy4(d->xquat + 4 * i, xquat);
@@ -300,14 +301,45 @@ static void chain_jacobian(const mjModel* m, const mjData* d, const Problem* p,
   }
 }
 
+/* target_body = quat * s^-1 * b: the body orientation that puts the site on the
+   target, from the first pass's site and body frames (the site's placement on its body
+   as MuJoCo computes it); the target's own orientation for a body end effector */
+static void body_target(const mjModel* m, const mjData* d, const Problem* p, mjtNum* target_body) {
+  if (p->site) {
+    mjtNum site[4], rel[4], tmp[4];
+    mju_mat2Quat(site, d->site_xmat + 9 * p->ee_id);
+    mju_negQuat(rel, site);
+    mju_mulQuat(tmp, p->target_quat, rel);
+    mju_mulQuat(target_body, tmp, d->xquat + 4 * p->body);
+  } else {
+    memcpy(target_body, p->target_quat, sizeof(mjtNum) * 4);
+  }
+}
+
+/* The task error at the end effector's point xpos and its body's frame: -e into e (the
+   position rows, then for a pose the rotation rows scaled by wr: -w, log(t^-1 b) in the
+   body's frame, to the world by the body's rotation), its two norms into *ep, *er */
+static void task_error(const Problem* p, const mjtNum* xpos, const mjtNum* body_quat,
+                       const mjtNum* body_mat, const mjtNum* target_body, mjtNum* e, mjtNum* ep,
+                       mjtNum* er) {
+  mju_sub3(e, xpos, p->target_pos); /* -e: g = J' W (-e) needs no negation */
+  *ep = mju_norm3(e);
+  if (p->rows == 6) {
+    mjtNum q_err[3];
+    mju_subQuat(q_err, body_quat, target_body);
+    mju_mulMatVec3(e + 3, body_mat, q_err);
+    *er = mju_norm3(e + 3);
+    mju_scl3(e + 3, e + 3, p->wr);
+  }
+}
+
 /* Iterate from q (n,), which ends at the converged pose or this start's best pose (the
    lowest e' W e); the cost and the errors are those of that pose. The stall rule is the
    one of solvers/iterate.py (Stall): no 1 % drop over the last `window` iterations. */
 static Outcome descend(const mjModel* m, mjData* d, const Problem* p, mjtNum* q) {
   const int n = p->n, rows = p->rows, pose = rows == 6;
   Outcome out = {0, 0, INFINITY, NAN, NAN};
-  mjtNum e[6] = {0}, q_err[3], target_body[4], w[6] = {1, 1, 1, p->wr, p->wr, p->wr};
-  mjtNum *e_p = e, *e_r = e + 3;
+  mjtNum e[6] = {0}, target_body[4], w[6] = {1, 1, 1, p->wr, p->wr, p->wr};
   mjtNum best = INFINITY, best_ep = NAN, best_er = NAN, ep = 0.0, er = 0.0, cost = 0.0;
   const mjtNum* xpos = p->site ? d->site_xpos + 3 * p->ee_id : d->xpos + 3 * p->ee_id;
   const mjtNum* body_quat = d->xquat + 4 * p->body;
@@ -335,32 +367,11 @@ static Outcome descend(const mjModel* m, mjData* d, const Problem* p, mjtNum* q)
     if (!count) {
       mj_kinematics(m, d);
     } else { /* the whole path at the first pass, then the part the chain moves */
-      chain_kinematics(m, d, path + (it ? moving : 0), count - (it ? moving : 0));
+      chain_kinematics(m, d, path + (it ? moving : 0), count - (it ? moving : 0), 1);
       if (p->site) site_frame(m, d, p, it == 0 && pose);
     }
-    if (it == 0 && pose) {
-      /* target_body = quat * s^-1 * b: the body orientation that puts the site on the
-         target, from this pass's site and body frames (the site's placement on its
-         body as MuJoCo computes it) */
-      if (p->site) {
-        mjtNum site[4], rel[4], tmp[4];
-        mju_mat2Quat(site, d->site_xmat + 9 * p->ee_id);
-        mju_negQuat(rel, site);
-        mju_mulQuat(tmp, p->target_quat, rel);
-        mju_mulQuat(target_body, tmp, body_quat);
-      } else {
-        memcpy(target_body, p->target_quat, sizeof(mjtNum) * 4);
-      }
-    }
-    mju_sub3(e_p, xpos, p->target_pos); /* -e: g = J' W (-e) needs no negation */
-    ep = mju_norm3(e_p);
-    if (pose) {
-      /* -w: log(t^-1 b) in the body's frame, to the world by the body's rotation */
-      mju_subQuat(q_err, body_quat, target_body);
-      mju_mulMatVec3(e_r, body_mat, q_err);
-      er = mju_norm3(e_r);
-      mju_scl3(e_r, e_r, p->wr);
-    }
+    if (it == 0 && pose) body_target(m, d, p, target_body);
+    task_error(p, xpos, body_quat, body_mat, target_body, e, &ep, &er);
     cost = ep * ep + p->wr * er * er;
     if (cost < best) {
       best = cost, best_ep = ep, best_er = er;
@@ -930,16 +941,51 @@ done:
   return result;
 }
 
+/* descend's measure (max_iterations 0) of each of `count` joint vectors qs (count n)
+   toward its target (positions, quats: NaN for a position target), without descend's
+   buffers: the path's bodies are found once, and from the second target on only the
+   part the chain moves is computed again (the other joints stay where the first put
+   them), without the joints' axes. The same bits as descend's first pass. Into info
+   (4 count): converged, iterations (0), position error, orientation error. */
+static void measure_all(const mjModel* m, mjData* d, Problem* p, const mjtNum* positions,
+                        const mjtNum* quats, const mjtNum* qs, Py_ssize_t count, mjtNum* info) {
+  const mjtNum* xpos = p->site ? d->site_xpos + 3 * p->ee_id : d->xpos + 3 * p->ee_id;
+  const mjtNum *body_quat = d->xquat + 4 * p->body, *body_mat = d->xmat + 9 * p->body;
+  mj_markStack(d);
+  int* path = mj_stackAllocInt(d, (size_t)m->nbody);
+  int moving = 0;
+  const int bodies = chain_bodies(m, p, path, &moving);
+  for (Py_ssize_t i = 0; i < count; i++) {
+    mjtNum e[6], target_body[4], ep, er = 0.0;
+    p->target_pos = positions + 3 * i;
+    p->target_quat = isnan(quats[4 * i]) ? NULL : quats + 4 * i;
+    p->rows = p->target_quat ? 6 : 3;
+    put_joints(p, d, qs + (size_t)p->n * i);
+    if (!bodies) {
+      mj_kinematics(m, d);
+    } else {
+      chain_kinematics(m, d, path + (i ? moving : 0), bodies - (i ? moving : 0), 0);
+      if (p->site) site_frame(m, d, p, p->rows == 6);
+    }
+    if (p->rows == 6) body_target(m, d, p, target_body);
+    task_error(p, xpos, body_quat, body_mat, target_body, e, &ep, &er);
+    mjtNum* row = info + 4 * i;
+    row[0] = ep < p->tol && er < p->rot_tol, row[1] = 0, row[2] = ep;
+    row[3] = er; /* 0 for a position target, as descend gives it */
+  }
+  mj_freeStack(d);
+}
+
 PyDoc_STRVAR(measure_doc,
 "measure(qpos, qpos_adr, dof_adr, site, ee_id, lower, upper, positions, quats, options,\n"
 "        scratch, qs, out_info) -> None\n"
 "\n"
-"descend from each row of qs (N n,) toward its target, as descend does it (the first 11\n"
-"arguments as for solve, scratch (n,) a writable array standing for q): with\n"
-"max_iterations 0 in options, the kernel's measure of each joint vector, the errors of\n"
-"MuJoCo's FK of it (the kernel's chain kinematics) and whether they are within the\n"
-"tolerances; (converged, iterations, position error, orientation error) into out_info\n"
-"(4 N,). The loop runs without the GIL.");
+"the kernel's measure of each row of qs (N n,) toward its target (the first 11 arguments\n"
+"as for solve, scratch (n,) a writable array standing for q): the errors of MuJoCo's FK\n"
+"of it (the kernel's chain kinematics), the first pass of descend to the last bit,\n"
+"without iterating (options' max_iterations is not read), and whether they are within\n"
+"options' tolerances; (converged, iterations 0, position error, orientation error) into\n"
+"out_info (4 N,). The loop runs without the GIL.");
 
 static PyObject* Kernel_measure(Kernel* self, PyObject* const* args, Py_ssize_t nargs) {
   if (nargs != 13) {
@@ -964,14 +1010,7 @@ static PyObject* Kernel_measure(Kernel* self, PyObject* const* args, Py_ssize_t 
   self->busy = 1;
   Py_BEGIN_ALLOW_THREADS
   memcpy(d->qpos, qpos, sizeof(mjtNum) * (size_t)m->nq);
-  for (Py_ssize_t i = 0; i < count; i++) {
-    p.target_pos = positions + 3 * i;
-    p.target_quat = isnan(quats[4 * i]) ? NULL : quats + 4 * i;
-    p.rows = p.target_quat ? 6 : 3;
-    Outcome out = descend(m, d, &p, qs + (size_t)p.n * i);
-    mjtNum* row = info + 4 * i;
-    row[0] = out.converged, row[1] = out.iterations, row[2] = out.ep, row[3] = out.er;
-  }
+  measure_all(m, d, &p, positions, quats, qs, count, info);
   Py_END_ALLOW_THREADS
   self->busy = 0;
   result = Py_NewRef(Py_None);

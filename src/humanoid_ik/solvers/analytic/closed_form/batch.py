@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.rotations import axis_angle_matrix, quat_to_mat
+from humanoid_ik.core.types import target_rows
 from humanoid_ik.errors import TargetError
 from humanoid_ik.solvers.analytic.closed_form import swivel as sw
 from humanoid_ik.solvers.analytic.closed_form.geometry import ArmContext, Forearm, arm_context
@@ -362,27 +363,8 @@ def target_arrays(
     Raises:
         TargetError: wrong shapes, NaN/inf, non-unit quaternions.
     """
-    p = np.asarray(positions, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 3:
-        raise TargetError(f"positions must have shape (N, 3), got {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise TargetError("positions contain NaN or inf")
-    if quats is None:
-        return p, None
-    qt = np.asarray(quats, dtype=np.float64)
-    if qt.shape != (p.shape[0], 4):
-        raise TargetError(f"quats must have shape ({p.shape[0]}, 4) (w, x, y, z), got {qt.shape}")
-    if not np.all(np.isfinite(qt)):
-        raise TargetError("quats contain NaN or inf")
-    norm = np.linalg.norm(qt, axis=1)
-    if np.any(np.abs(norm - 1.0) > 1e-3):
-        i = int(np.argmax(np.abs(norm - 1.0)))
-        raise TargetError(
-            f"quaternion {qt[i].tolist()} has norm {norm[i]:.6g}; expected unit (w, x, y, z)"
-        )
-    # quat_to_mat is elementwise: on (4, N) components it gives (3, 3, N)
-    R = quat_to_mat((qt / norm[:, None]).T)
-    return p, np.ascontiguousarray(np.moveaxis(R, 2, 0))
+    p, _, unit = target_rows(positions, quats)
+    return p, None if unit is None else quat_to_mat(unit)
 
 
 def starts(chain: Chain, q0: ArrayLike | None, N: int) -> NDArray[np.float64]:

@@ -51,12 +51,14 @@
 
 /* ------------------------------------------------------------------ the arm's FK */
 
-/* G(q) = e^(h1 q1) ... e^(h6 q6): rotation Rg, translation pg (x -> Rg x + pg) */
-static void poe(const ArmGeometry* a, const double* q, double* Rg, double* pg) {
+/* G(q) = e^(h1 q1) ... e^(h6 q6): rotation Rg, translation pg (x -> Rg x + pg); with
+   cs, the angles' cosines and sines (cs[2 i], cs[2 i + 1]) instead of cos and sin of q */
+static void poe(const ArmGeometry* a, const double* q, const double* cs, double* Rg, double* pg) {
   double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, p[3] = {0, 0, 0};
   for (int i = 0; i < 6; i++) {
     double Ri[9], Rn[9], t[3], c[3];
-    rot_mat(a->h[i], q[i], Ri);
+    if (cs) rot_mat_cs(a->h[i], cs[2 * i], cs[2 * i + 1], Ri);
+    else rot_mat(a->h[i], q[i], Ri);
     /* e^(h q) x = Ri x + (p_i - Ri p_i); compose (R, p) o (Ri, ti) */
     mat_vec(Ri, a->p[i], c);
     sub(a->p[i], c, t);
@@ -69,11 +71,12 @@ static void poe(const ArmGeometry* a, const double* q, double* Rg, double* pg) {
   memcpy(pg, p, sizeof p);
 }
 
-/* the pose error of q against G (end frame at zero: R0, p0): position [m] and the
-   rotation vector [rad] of R_target R(q)', into e[6]; returns the larger norm */
-static double pose_err(const ArmGeometry* a, const double* q, const double* GR, const double* Gp, double* e) {
+/* the pose error of q (cs: as for poe) against G (end frame at zero: R0, p0): position
+   [m] and the rotation vector [rad] of R_target R(q)', into e[6]; returns the larger norm */
+static double pose_err(const ArmGeometry* a, const double* q, const double* cs, const double* GR,
+                       const double* Gp, double* e) {
   double R[9], p[3], x[3], y[3], D[9];
-  poe(a, q, R, p);
+  poe(a, q, cs, R, p);
   mat_vec(R, a->p0, x);
   add(x, p, x);
   mat_vec(GR, a->p0, y);
@@ -91,12 +94,13 @@ static double pose_err(const ArmGeometry* a, const double* q, const double* GR, 
 }
 
 /* Newton steps on the six pose equations (the error is measured at the end point
-   G p0); returns the pose error left */
-static double polish(const ArmGeometry* a, double* q, const double* GR, const double* Gp) {
-  double e[6], err = pose_err(a, q, GR, Gp, e);
+   G p0; cs, as for poe, for the first measure); returns the pose error left */
+static double polish(const ArmGeometry* a, double* q, const double* cs, const double* GR,
+                     const double* Gp) {
+  double e[6], err = pose_err(a, q, cs, GR, Gp, e);
   for (int it = 0; it < 3 && err > POLISH; it++) {
     double J[6][7], R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, p[3] = {0, 0, 0}, end[3], Rg[9], pg[3];
-    poe(a, q, Rg, pg);
+    poe(a, q, NULL, Rg, pg);
     mat_vec(Rg, a->p0, end);
     add(end, pg, end);
     for (int i = 0; i < 6; i++) { /* axis i and its point after joints 1..i-1 */
@@ -139,7 +143,7 @@ static double polish(const ArmGeometry* a, double* q, const double* GR, const do
       dq[r] = s / J[r][r];
     }
     for (int k = 0; k < 6; k++) qn[k] = q[k] + dq[k];
-    double en[6], errn = pose_err(a, qn, GR, Gp, en);
+    double en[6], errn = pose_err(a, qn, NULL, GR, Gp, en);
     if (!(errn < err)) break;
     memcpy(q, qn, sizeof qn);
     memcpy(e, en, sizeof en);
@@ -159,36 +163,36 @@ static int position3(const ArmGeometry* a, const double* Wd, double sol[4][3]) {
   switch (a->pcase) {
     case 0: /* h2 || h3: along h2 only q1 moves Wd */
       sub(Wd, p1, x), sub(W, p1, y);
-      for (int i = 0, ni = sp4(h2, h1, x, dot(h2, y), t); i < ni; i++) {
+      for (int i = 0, ni = sp4(h2, h1, x, dot(h2, y), t, NULL); i < ni; i++) {
         turn(h1, p1, t[i], Wd, Y);
         sub(W, p3, x), sub(p2, p3, y), sub(Y, p2, V);
         double d = norm(V);
-        for (int j = 0, nj = sp3(h3, x, y, d, u); j < nj; j++) {
+        for (int j = 0, nj = sp3(h3, x, y, d, u, NULL); j < nj; j++) {
           turn(h3, p3, u[j], W, V);
           sub(V, p2, x), sub(Y, p2, y);
           double q2;
-          sp1(h2, x, y, &q2);
+          sp1(h2, x, y, &q2, NULL);
           sol[n][0] = -t[i], sol[n][1] = q2, sol[n][2] = u[j], n++;
         }
       }
       break;
     case 1: /* h1 || h2: along h1 only q3 moves W */
       sub(W, p3, x), sub(Wd, p3, y);
-      for (int i = 0, ni = sp4(h1, h3, x, dot(h1, y), t); i < ni; i++) {
+      for (int i = 0, ni = sp4(h1, h3, x, dot(h1, y), t, NULL); i < ni; i++) {
         turn(h3, p3, t[i], W, V);
         sub(V, p2, x), sub(p1, p2, y), sub(Wd, p1, Y);
-        for (int j = 0, nj = sp3(h2, x, y, norm(Y), u); j < nj; j++) {
+        for (int j = 0, nj = sp3(h2, x, y, norm(Y), u, NULL); j < nj; j++) {
           turn(h2, p2, u[j], V, V2);
           sub(V2, p1, x);
           double q1;
-          sp1(h1, x, Y, &q1);
+          sp1(h1, x, Y, &q1, NULL);
           sol[n][0] = q1, sol[n][1] = u[j], sol[n][2] = t[i], n++;
         }
       }
       break;
     case 2: /* h1 and h2 meet at O: |W - O| fixes q3 */
       sub(W, p3, x), sub(O, p3, y), sub(Wd, O, Y);
-      for (int i = 0, ni = sp3(h3, x, y, norm(Y), t); i < ni; i++) {
+      for (int i = 0, ni = sp3(h3, x, y, norm(Y), t, NULL); i < ni; i++) {
         turn(h3, p3, t[i], W, V);
         sub(V, O, V2);
         for (int j = 0, nj = sp2(h1, Y, h2, V2, v1, v2); j < nj; j++)
@@ -197,7 +201,7 @@ static int position3(const ArmGeometry* a, const double* Wd, double sol[4][3]) {
       break;
     default: /* h2 and h3 meet at O: |Wd - O| after q1 fixes q1 */
       sub(Wd, p1, x), sub(O, p1, y), sub(W, O, V);
-      for (int i = 0, ni = sp3(h1, x, y, norm(V), t); i < ni; i++) {
+      for (int i = 0, ni = sp3(h1, x, y, norm(V), t, NULL); i < ni; i++) {
         turn(h1, p1, t[i], Wd, Y);
         sub(Y, O, V2);
         for (int j = 0, nj = sp2(h2, V2, h3, V, v1, v2); j < nj; j++)
@@ -213,11 +217,11 @@ static int wrist3(const ArmGeometry* a, const double* M, double q4_start, double
   double Mh6[3], Mth4[3], t[2], x[3], y[3];
   mat_vec(M, h6, Mh6);
   mat_tvec(M, h4, Mth4);
-  int n = sp4(h4, h5, h6, dot(h4, Mh6), t);
+  int n = sp4(h4, h5, h6, dot(h4, Mh6), t, NULL);
   for (int i = 0; i < n; i++) {
     double q4, q6;
     rot(h5, t[i], h6, x);
-    if (sp1(h4, x, Mh6, &q4) < 1e-12) { /* h6 turned onto h4: only q4 + q6 counts */
+    if (sp1(h4, x, Mh6, &q4, NULL) < 1e-12) { /* h6 turned onto h4: only q4 + q6 counts */
       double R4[9], R5[9], A[9], B[9], nrm[3];
       q4 = q4_start;
       rot_mat(h4, q4, R4), rot_mat(h5, t[i], R5);
@@ -225,10 +229,10 @@ static int wrist3(const ArmGeometry* a, const double* M, double q4_start, double
       mat_tmul(A, M, B); /* R6 = (R4 R5)' M */
       normal_to(h6, nrm);
       mat_vec(B, nrm, y);
-      sp1(h6, nrm, y, &q6);
+      sp1(h6, nrm, y, &q6, NULL);
     } else {
       rot(h5, -t[i], h4, y);
-      sp1(h6, Mth4, y, &q6);
+      sp1(h6, Mth4, y, &q6, NULL);
     }
     sol[i][0] = q4, sol[i][1] = t[i], sol[i][2] = q6;
   }
@@ -255,25 +259,29 @@ static int family_wrist(const ArmGeometry* a, const double* GR, const double* Gp
   return n;
 }
 
-/* the pairs (t1, t2) = (-q1, q5) of family 1 (three parallel axes, along h), up to 4.
+/* the pairs (t1, t2) = (-q1, q5) of family 1 (three parallel axes, along h), up to 4,
+   and their cosines and sines (c1 = cos t1, s1 = sin t1, c5, s5).
    Along h what the parallel axes leave: h' R(h1, -q1) (G p6 - p1) - h' R(h5, q5) (p6 - p5)
    = h' (p5 - p1) and h' R(h1, -q1) (G_R h6) - h' R(h5, q5) h6 = 0; SP6 solves the two at
    once. Where axes 5 and 6 meet at O (pcase 1, the UR arms), p5 = p6 = O makes the first
    an SP4 in q1 alone and the second, for each q1, an SP4 in q5. */
 static int parallel_pairs(const ArmGeometry* a, const double* GR, const double* Gp, double* t1,
-                          double* t2) {
+                          double* t2, double* c1, double* s1, double* c5, double* s5) {
   const double *h = a->h[1], *h1 = a->h[0], *h5 = a->h[4], *h6 = a->h[5];
   const double *p1 = a->p[0], *p5 = a->p[4], *p6 = a->p[5];
   double Gp6[3], a1[3], b1[3], a2[3], b2[3], c[3], A[2][4], b[2];
   if (a->pcase == 1) {
-    double u[2], v[2], r[3];
+    double u[2], v[2], r[3], cu[4], cv[4];
     int n = 0;
     mat_vec(GR, a->O, Gp6);
     add(Gp6, Gp, Gp6);
     sub(Gp6, p1, a1), sub(a->O, p1, c), mat_vec(GR, h6, a2);
-    for (int i = 0, ni = sp4(h, h1, a1, dot(h, c), u); i < ni; i++) {
-      rot(h1, u[i], a2, r);
-      for (int j = 0, nj = sp4(h, h5, h6, dot(h, r), v); j < nj; j++) t1[n] = u[i], t2[n] = v[j], n++;
+    for (int i = 0, ni = sp4(h, h1, a1, dot(h, c), u, cu); i < ni; i++) {
+      rot_cs(h1, cu[2 * i], cu[2 * i + 1], a2, r);
+      for (int j = 0, nj = sp4(h, h5, h6, dot(h, r), v, cv); j < nj; j++, n++) {
+        t1[n] = u[i], t2[n] = v[j];
+        c1[n] = cu[2 * i], s1[n] = cu[2 * i + 1], c5[n] = cv[2 * j], s5[n] = cv[2 * j + 1];
+      }
     }
     return n;
   }
@@ -291,35 +299,38 @@ static int parallel_pairs(const ArmGeometry* a, const double* GR, const double* 
     A[r][0] = ta[1], A[r][1] = ta[2], A[r][2] = tb[1], A[r][3] = tb[2];
     b[r] -= ta[0] + tb[0];
   }
-  return sp6(A, b, t1, t2);
+  int n = sp6(A, b, t1, t2);
+  for (int i = 0; i < n; i++) c1[i] = cos(t1[i]), s1[i] = sin(t1[i]), c5[i] = cos(t2[i]), s5[i] = sin(t2[i]);
+  return n;
 }
 
 static int family_parallel(const ArmGeometry* a, const double* GR, const double* Gp, const double* q0,
-                           double out[MAXSOL][6]) {
+                           double out[MAXSOL][6], double cs[MAXSOL][12]) {
   const double *h = a->h[1], *h1 = a->h[0], *h5 = a->h[4], *h6 = a->h[5];
   const double *p1 = a->p[0], *p2 = a->p[1], *p3 = a->p[2], *p4 = a->p[3], *p5 = a->p[4], *p6 = a->p[5];
   double s3 = dot(a->h[2], h) > 0.0 ? 1.0 : -1.0, s4 = dot(a->h[3], h) > 0.0 ? 1.0 : -1.0;
-  double t1[4], t2[4];
-  int n6 = parallel_pairs(a, GR, Gp, t1, t2), n = 0;
+  double t1[4], t2[4], c1[4], s1[4], c5[4], s5[4];
+  int n6 = parallel_pairs(a, GR, Gp, t1, t2, c1, s1, c5, s5), n = 0;
   double R1[9], M[9], Mth[3], nrm[3], pp[3], qq[3];
   normal_to(h, nrm);
   sub(p4, p3, pp), sub(p2, p3, qq);
   for (int i = 0; i < n6; i++) {
     double q1 = -t1[i], q5 = t2[i], q6, R5[9], R6[9], x[3], y[3], z[3], th, Kp4[3], d[3], u[2];
+    double c6[2], cu[4], cth[2];
     if (i == 0 || t1[i] != t1[i - 1]) { /* the pairs of one q1 share its rotation */
-      rot_mat(h1, q1, R1);
-      mat_tmul(R1, GR, M); /* R234 R5 R6 */
+      rot_mat_cs(h1, c1[i], -s1[i], R1); /* R(h1, q1), q1 = -t1 */
+      mat_tmul(R1, GR, M);               /* R234 R5 R6 */
       mat_tvec(M, h, Mth);
     }
-    rot_mat(h5, q5, R5);
+    rot_mat_cs(h5, c5[i], s5[i], R5);
     mat_tvec(R5, h, y);
-    if (sp1(h6, Mth, y, &q6) < 1e-12) q6 = q0[5];
-    rot_mat(h6, q6, R6);
+    if (sp1(h6, Mth, y, &q6, c6) < 1e-12) q6 = q0[5], c6[0] = cos(q6), c6[1] = sin(q6);
+    rot_mat_cs(h6, c6[0], c6[1], R6);
     /* R234 = M R6' R5': its angle about h, from where it turns nrm */
     mat_tvec(R5, nrm, x);
     mat_tvec(R6, x, z);
     mat_vec(M, z, y);
-    sp1(h, nrm, y, &th);
+    sp1(h, nrm, y, &th, cth);
     /* K p4 = e^(-h1 q1) G (e^(h5 q5) e^(h6 q6))^-1 p4, and K = e^(h2 q2) e^(h3 q3) e^(h4 q4);
        e^(-h q) x = R(h, q)' (x - p) + p */
     sub(p4, p5, z), mat_tvec(R5, z, x), add(x, p5, x);
@@ -327,13 +338,19 @@ static int family_parallel(const ArmGeometry* a, const double* GR, const double*
     mat_vec(GR, x, z), add(z, Gp, z);
     sub(z, p1, x), mat_tvec(R1, x, Kp4), add(Kp4, p1, Kp4);
     sub(Kp4, p2, d);
-    for (int j = 0, nj = sp3(a->h[2], pp, qq, norm(d), u); j < nj && n < MAXSOL; j++) {
-      double V[3], q2;
-      turn(a->h[2], p3, u[j], p4, V);
+    for (int j = 0, nj = sp3(a->h[2], pp, qq, norm(d), u, cu); j < nj && n < MAXSOL; j++) {
+      double V[3], q2, c2[2], c3 = cu[2 * j], sn3 = s3 * cu[2 * j + 1];
+      rot_cs(a->h[2], cu[2 * j], cu[2 * j + 1], pp, V); /* e^(h3 q3) p4 - p3 */
+      add(V, p3, V);
       sub(V, p2, x);
-      sp1(h, x, d, &q2);
+      sp1(h, x, d, &q2, c2);
       out[n][0] = q1, out[n][1] = q2, out[n][2] = u[j];
       out[n][3] = s4 * (th - q2 - s3 * u[j]), out[n][4] = q5, out[n][5] = q6;
+      /* the cosines and sines: q4 = s4 (th - q2 - s3 q3) by the angle differences */
+      double ca = cth[0] * c2[0] + cth[1] * c2[1], sa = cth[1] * c2[0] - cth[0] * c2[1];
+      double c4 = ca * c3 + sa * sn3, sn4 = sa * c3 - ca * sn3;
+      double row[12] = {c1[i], -s1[i], c2[0], c2[1], c3, cu[2 * j + 1], c4, s4 * sn4, c5[i], s5[i], c6[0], c6[1]};
+      memcpy(cs[n], row, sizeof row);
       n++;
     }
   }
@@ -341,10 +358,11 @@ static int family_parallel(const ArmGeometry* a, const double* GR, const double*
 }
 
 /* the raw solutions of G (in the solved order, unchecked) into raw, and G and q0 in
-   the solved order (G inverted on a reversed arm) into GR, Gp, q0 */
+   the solved order (G inverted on a reversed arm) into GR, Gp, q0; returns how many,
+   and *have (cs filled: their cosines and sines, as poe takes them) for family 1 */
 static int raw_solutions(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
                          const double* q0_in, double* GR, double* Gp, double* q0,
-                         double raw[MAXSOL][6]) {
+                         double raw[MAXSOL][6], double cs[MAXSOL][12], int* have) {
   if (a->reverse) { /* G^-1 on the reversed arm */
     for (int i = 0; i < 3; i++)
       for (int j = 0; j < 3; j++) GR[3 * i + j] = GR_in[3 * j + i];
@@ -355,7 +373,8 @@ static int raw_solutions(const ArmGeometry* a, const double* GR_in, const double
     memcpy(GR, GR_in, 9 * sizeof(double)), memcpy(Gp, Gp_in, 3 * sizeof(double));
     memcpy(q0, q0_in, 6 * sizeof(double));
   }
-  return a->family == 0 ? family_wrist(a, GR, Gp, q0, raw) : family_parallel(a, GR, Gp, q0, raw);
+  *have = a->family == 1;
+  return a->family == 0 ? family_wrist(a, GR, Gp, q0, raw) : family_parallel(a, GR, Gp, q0, raw, cs);
 }
 
 /* a raw solution in the chain's order, each angle in (-pi, pi] */
@@ -380,10 +399,10 @@ static int distinct(double sol[MAXSOL][6], int n, const double* q) {
    polished; q0 the start */
 int sp_solve_all(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
                  const double* q0_in, double out[MAXSOL][6]) {
-  double GR[9], Gp[3], q0[6], raw[MAXSOL][6], q[6];
-  int nr = raw_solutions(a, GR_in, Gp_in, q0_in, GR, Gp, q0, raw), n = 0;
+  double GR[9], Gp[3], q0[6], raw[MAXSOL][6], cs[MAXSOL][12], q[6];
+  int have, nr = raw_solutions(a, GR_in, Gp_in, q0_in, GR, Gp, q0, raw, cs, &have), n = 0;
   for (int i = 0; i < nr; i++) {
-    if (polish(a, raw[i], GR, Gp) > ACCEPT) continue;
+    if (polish(a, raw[i], have ? cs[i] : NULL, GR, Gp) > ACCEPT) continue;
     chain_order(a, raw[i], q);
     if (distinct(out, n, q)) memcpy(out[n++], q, sizeof q);
   }
@@ -483,10 +502,10 @@ static int choose(const Placed* p, int n, int* inside) {
 int sp_solve_pick(const ArmGeometry* a, const double* GR_in, const double* Gp_in,
                   const double* q0_in, const double* L, const double* U, double tol, double* out,
                   int* found) {
-  double GR[9], Gp[3], q0[6], raw[MAXSOL][6], sol[MAXSOL][6];
+  double GR[9], Gp[3], q0[6], raw[MAXSOL][6], cs[MAXSOL][12], sol[MAXSOL][6];
   Placed placed[MAXSOL];
-  int from[MAXSOL], checked[MAXSOL], n = 0, inside = 0;
-  int nr = raw_solutions(a, GR_in, Gp_in, q0_in, GR, Gp, q0, raw);
+  int from[MAXSOL], checked[MAXSOL], n = 0, inside = 0, have;
+  int nr = raw_solutions(a, GR_in, Gp_in, q0_in, GR, Gp, q0, raw, cs, &have);
   for (int i = 0; i < nr; i++) {
     chain_order(a, raw[i], sol[n]);
     if (!distinct(sol, n, sol[n])) continue;
@@ -500,7 +519,7 @@ int sp_solve_pick(const ArmGeometry* a, const double* GR_in, const double* Gp_in
       *found = n;
       return inside;
     }
-    if (polish(a, raw[from[k]], GR, Gp) > ACCEPT) { /* a spurious root: dropped */
+    if (polish(a, raw[from[k]], have ? cs[from[k]] : NULL, GR, Gp) > ACCEPT) { /* spurious */
       n--;
       memmove(placed + k, placed + k + 1, (n - k) * sizeof placed[0]);
       memmove(from + k, from + k + 1, (n - k) * sizeof from[0]);

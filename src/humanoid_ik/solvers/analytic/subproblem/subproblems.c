@@ -9,16 +9,23 @@
 /* ------------------------------------------------------------------ subproblems */
 
 /* SP1: t with R(k, t) p closest to q; returns |p_perp| |q_perp| (0: any t) */
-double sp1(const double* k, const double* p, const double* q, double* t) {
+double sp1(const double* k, const double* p, const double* q, double* t, double* cs) {
   double pp[3], qp[3], c[3], kp = dot(k, p), kq = dot(k, q);
   for (int i = 0; i < 3; i++) pp[i] = p[i] - kp * k[i], qp[i] = q[i] - kq * k[i];
   cross(pp, qp, c);
-  *t = atan2(dot(k, c), dot(pp, qp));
+  double y = dot(k, c), x = dot(pp, qp);
+  *t = atan2(y, x);
+  if (cs) { /* cos t, sin t from atan2's own arguments */
+    double r = sqrt(x * x + y * y);
+    cs[0] = r > 0.0 ? x / r : 1.0, cs[1] = r > 0.0 ? y / r : 0.0;
+  }
   return norm(pp) * norm(qp);
 }
 
-/* roots of A cos t + B sin t = C: 0 or 2 (a tangent case within SLACK gives 2 equal) */
-static int trig(double A, double B, double C, double* t) {
+/* roots of A cos t + B sin t = C: 0 or 2 (a tangent case within SLACK gives 2 equal);
+   with cs, their cosines and sines too (cs[2 i], cs[2 i + 1]), from the same numbers
+   instead of cos and sin of the roots */
+static int trig(double A, double B, double C, double* t, double* cs) {
   double r = hypot(A, B);
   if (r < 1e-300) return 0;
   double x = C / r;
@@ -26,11 +33,16 @@ static int trig(double A, double B, double C, double* t) {
   x = x > 1.0 ? 1.0 : (x < -1.0 ? -1.0 : x);
   double base = atan2(B, A), half = acos(x);
   t[0] = base + half, t[1] = base - half;
+  if (cs) { /* t = base +- half: cos base = A / r, sin base = B / r, cos half = x */
+    double cb = A / r, sb = B / r, sh = sqrt(1.0 - x * x);
+    cs[0] = cb * x - sb * sh, cs[1] = sb * x + cb * sh;
+    cs[2] = cb * x + sb * sh, cs[3] = sb * x - cb * sh;
+  }
   return 2;
 }
 
 /* SP3: t with |R(k, t) p - q| = d */
-int sp3(const double* k, const double* p, const double* q, double d, double* t) {
+int sp3(const double* k, const double* p, const double* q, double d, double* t, double* cs) {
   double pp[3], qp[3], kpq = dot(k, p) - dot(k, q), c[3];
   double kp = dot(k, p), kq = dot(k, q);
   for (int i = 0; i < 3; i++) pp[i] = p[i] - kp * k[i], qp[i] = q[i] - kq * k[i];
@@ -38,14 +50,14 @@ int sp3(const double* k, const double* p, const double* q, double d, double* t) 
   cross(pp, qp, c);
   double A = 2.0 * dot(pp, qp), B = 2.0 * dot(k, c);
   double C = dot(pp, pp) + dot(qp, qp) - d * d + kpq * kpq;
-  return trig(A, B, C, t);
+  return trig(A, B, C, t, cs);
 }
 
 /* SP4: t with h' R(k, t) p = d */
-int sp4(const double* h, const double* k, const double* p, double d, double* t) {
+int sp4(const double* h, const double* k, const double* p, double d, double* t, double* cs) {
   double kx[3], hk = dot(h, k), kp = dot(k, p);
   cross(k, p, kx);
-  return trig(dot(h, p) - hk * kp, dot(h, kx), d - hk * kp, t);
+  return trig(dot(h, p) - hk * kp, dot(h, kx), d - hk * kp, t, cs);
 }
 
 /* SP2: (t1, t2) with R(k1, t1) p1 = R(k2, t2) p2, k1 not parallel to k2 */
@@ -63,8 +75,8 @@ int sp2(const double* k1, const double* p1, const double* k2, const double* p2,
   for (int s = 0; s < 2; s++) {
     double c[3], gs = s ? -g : g;
     for (int i = 0; i < 3; i++) c[i] = al * k1[i] + be * k2[i] + gs * n[i];
-    sp1(k1, p1, c, &t1[s]);
-    sp1(k2, p2, c, &t2[s]);
+    sp1(k1, p1, c, &t1[s], NULL);
+    sp1(k2, p2, c, &t2[s], NULL);
   }
   return 2;
 }

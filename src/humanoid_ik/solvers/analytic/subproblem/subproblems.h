@@ -61,11 +61,11 @@ int sp_search(const LockedArm* a, const double* GR, const double* Gp, const doub
 
 /* the subproblems (subproblems.c): sp1 returns how well its angle is defined (0: any),
    the others how many solutions they wrote */
-double sp1(const double* k, const double* p, const double* q, double* t);
+double sp1(const double* k, const double* p, const double* q, double* t, double* cs);
 int sp2(const double* k1, const double* p1, const double* k2, const double* p2, double* t1,
         double* t2);
-int sp3(const double* k, const double* p, const double* q, double d, double* t);
-int sp4(const double* h, const double* k, const double* p, double d, double* t);
+int sp3(const double* k, const double* p, const double* q, double d, double* t, double* cs);
+int sp4(const double* h, const double* k, const double* p, double d, double* t, double* cs);
 int sp6(const double A[2][4], const double b[2], double* t1, double* t2);
 void trig_terms(const double* h, const double* k, const double* p, double* c);
 
@@ -85,20 +85,23 @@ static inline void add(const double* a, const double* b, double* c) {
 }
 static inline double norm(const double* a) { return sqrt(dot(a, a)); }
 
-/* R(k, t) v (Rodrigues), k a unit vector */
-static inline void rot(const double* k, double t, const double* v, double* out) {
-  double c = cos(t), s = sin(t), kv = dot(k, v), kx[3];
+/* R(k, t) v (Rodrigues), k a unit vector, from c = cos t and s = sin t */
+static inline void rot_cs(const double* k, double c, double s, const double* v, double* out) {
+  double kv = dot(k, v), kx[3];
   cross(k, v, kx);
   for (int i = 0; i < 3; i++) out[i] = c * v[i] + s * kx[i] + (1.0 - c) * kv * k[i];
 }
-
-/* R(k, t) as a row-major matrix */
-static inline void rot_mat(const double* k, double t, double* R) {
-  double c = cos(t), s = sin(t), v = 1.0 - c;
+static inline void rot(const double* k, double t, const double* v, double* out) {
+  rot_cs(k, cos(t), sin(t), v, out);
+}
+/* R(k, t) as a row-major matrix, from c = cos t and s = sin t */
+static inline void rot_mat_cs(const double* k, double c, double s, double* R) {
+  double v = 1.0 - c;
   R[0] = c + k[0] * k[0] * v, R[1] = k[0] * k[1] * v - k[2] * s, R[2] = k[0] * k[2] * v + k[1] * s;
   R[3] = k[1] * k[0] * v + k[2] * s, R[4] = c + k[1] * k[1] * v, R[5] = k[1] * k[2] * v - k[0] * s;
   R[6] = k[2] * k[0] * v - k[1] * s, R[7] = k[2] * k[1] * v + k[0] * s, R[8] = c + k[2] * k[2] * v;
 }
+static inline void rot_mat(const double* k, double t, double* R) { rot_mat_cs(k, cos(t), sin(t), R); }
 static inline void mat_mul(const double* A, const double* B, double* C) { /* C = A B */
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++)
