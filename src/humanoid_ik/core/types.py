@@ -316,35 +316,6 @@ class IKResult:
         )  # fmt: skip
         return new
 
-    @classmethod
-    def converged_rows(
-        cls,
-        q: NDArray[np.float64],
-        iterations: Sequence[int],
-        position_errors: Sequence[float],
-        orientation_errors: Sequence[float | None],
-        solver: str,
-        details: Mapping[str, Any] = _NO_DETAILS,
-    ) -> list[IKResult]:
-        """Converged results, one per row of ``q`` ``(N, n)`` (read-only float64), taken
-        as they are like :meth:`unchecked`, with their ``iterations`` and errors: what
-        :func:`~humanoid_ik.solvers.batch.solve_batch` makes of the compiled ``lm``'s
-        answers (0.5 us a result, half of :meth:`unchecked` called per row)."""
-        template = {
-            "converged": True, "status": Status.CONVERGED, "solver": solver, "message": "",
-            "details": details,
-        }  # fmt: skip
-        new, out = object.__new__, []
-        rows = zip(q, iterations, position_errors, orientation_errors, strict=True)
-        with collector_held():
-            for qi, its, ep, er in rows:
-                r = new(cls)
-                r.__dict__.update(
-                    template, q=qi, iterations=its, position_error=ep, orientation_error=er
-                )
-                out.append(r)
-        return out
-
     def with_details(self, **extra: Any) -> IKResult:
         """This result with ``extra`` added to its ``details`` (the other fields shared:
         they are immutable, ``q`` read-only), without re-checking them."""

@@ -23,7 +23,7 @@ the model), so this pays from tens of thousands of targets (``benchmarks/batch.p
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from types import MappingProxyType
 from typing import Any, cast
 
@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from humanoid_ik.core.chain import Chain
 from humanoid_ik.core.robot import Robot
 from humanoid_ik.core.rotations import quat_to_mat
-from humanoid_ik.core.types import BatchResults, IKResult, Target, target_rows
+from humanoid_ik.core.types import BatchResults, IKResult, Status, Target, target_rows
 from humanoid_ik.errors import SolverError, TargetError
 from humanoid_ik.solvers.analytic.subproblem import Subproblem
 from humanoid_ik.solvers.auto import Auto
@@ -186,49 +186,62 @@ def _solve_compiled(
     targets: _Targets,
     start: NDArray[np.float64],
     threads: int,
-) -> list[IKResult]:
-    """``solve(chain, target, solver, q0=start)`` for each target but the first (which
-    the caller solved), the compiled loop solving them all (:meth:`LM.solve_many`, on
-    ``threads`` threads): each converged answer is wrapped as ``lm`` (and ``auto``) wrap
-    it. For ``auto``, the pose targets ``lm`` missed go to its retry
-    (:attr:`Auto.retry`) in the compiled loop as well; a target still missed is solved
-    again by the one call, which measures it (the same starts give the same pose: only
-    the result is made anew)."""
-    if targets.count < 2:
-        return []
+) -> BatchResults:
+    """``solve(chain, target, solver, q0=start)`` for each target, the compiled loop
+    solving them all (:meth:`LM.solve_many`, on ``threads`` threads): each converged
+    answer is wrapped as ``lm`` (and ``auto``) wrap it, when read. For ``auto``, the pose
+    targets ``lm`` missed go to its retry (:attr:`Auto.retry`) in the compiled loop as
+    well; a target still missed is solved again by the one call, which measures it (the
+    same starts give the same pose: only the result is made anew)."""
     auto = type(solver) is Auto
+    positions, quats, rotations, _ = targets.packed
+    posed = ~np.isnan(quats[:, 0])
     chain.claim()
     try:
         chain.sync()
         q0 = chain.clip(check_start(chain, start))
-        positions, quats, rotations, _ = (a[1:] for a in targets.packed)
         q, info = lm.solve_many(chain, positions, quats, rotations, q0, threads)
-        posed = ~np.isnan(quats[:, 0])
         again = np.flatnonzero((info[:, 0] != 1.0) & posed) if auto else np.empty(0, int)
         if again.size:
             assert isinstance(solver, Auto)
             parts = (positions[again], quats[again], rotations[again])
-            retried = solver.retry.solve_many(chain, *parts, q0, threads)
+            q2, info2 = solver.retry.solve_many(chain, *parts, q0, threads)
     finally:
         chain.release()
-    q.setflags(write=False)
-    details: Mapping[str, Any] = MappingProxyType({"auto": ("lm",)} if auto else {})
-    results = IKResult.converged_rows(q, *_info_rows(info, posed), lm.name, details)
-    if again.size:
-        q2, info2 = retried
-        q2.setflags(write=False)
-        both = MappingProxyType({"auto": ("lm", "lm")})
-        rows = IKResult.converged_rows(q2, *_info_rows(info2, posed[again]), lm.name, both)
-        for i, ok, row in zip(again.tolist(), (info2[:, 0] == 1.0).tolist(), rows, strict=True):
-            if ok:
-                results[i] = row
-                info[i, 0] = 1.0
-    for i in np.flatnonzero(info[:, 0] != 1.0).tolist():  # solved again by the one call
-        results[i] = solve(chain, targets.target(i + 1), solver, q0=start)
-    last = results[-1]
-    if last.converged:
-        chain.set_q(last.q)  # the scratch data at the last answer, as after the one calls
-    return results
+    retried: set[int] = set()
+    if again.size:  # the retry's converged answers replace the first pass's
+        ok = info2[:, 0] == 1.0
+        q[again[ok]], info[again[ok]] = q2[ok], info2[ok]
+        retried = set(again[ok].tolist())
+    made = {  # solved again by the one call
+        i: solve(chain, targets.target(i), solver, q0=start)
+        for i in np.flatnonzero(info[:, 0] != 1.0).tolist()
+    }
+    for i, r in made.items():
+        q[i] = r.q
+        er_i = np.nan if r.orientation_error is None else r.orientation_error
+        info[i] = (r.converged, r.iterations, r.position_error, er_i)
+    q.setflags(write=False)  # its rows are the results' joints
+    er = np.where(posed, info[:, 3], np.nan)
+    one = MappingProxyType({"auto": ("lm",)} if auto else {})
+    both = MappingProxyType({"auto": ("lm", "lm")})
+    template = {"converged": True, "status": Status.CONVERGED, "solver": lm.name, "message": ""}
+
+    def row(i: int) -> IKResult:
+        if i in made:
+            return made[i]
+        r = object.__new__(IKResult)
+        _ok, its, ep, e_r = info[i].tolist()
+        r.__dict__.update(
+            template, q=q[i], iterations=int(its), position_error=ep,
+            orientation_error=e_r if posed[i] else None,
+            details=both if i in retried else one,
+        )  # fmt: skip
+        return r
+
+    if info[-1, 0] == 1.0:
+        chain.set_q(q[-1])  # the scratch data at the last answer, as after the one calls
+    return BatchResults(targets.count, row, (q, info[:, 0] == 1.0, info[:, 2].copy(), er))
 
 
 def _compiled_subproblem(chain: Chain, solver: Solver, targets: _Targets) -> Subproblem | None:
@@ -272,17 +285,6 @@ def _solve_exact(
     extra = {"auto": (exact.name,)} if type(solver) is Auto else None
     chain.set_q(q[-1])  # the scratch data at the last answer, as after the one calls
     return exact.batch(chain.n, q, counts, info, extra)
-
-
-def _info_rows(
-    info: NDArray[np.float64], posed: NDArray[np.bool_]
-) -> tuple[list[int], list[float], list[float | None]]:
-    """The iterations, position errors and orientation errors (``None`` for a position
-    target) of :meth:`LM.solve_many`'s ``info`` rows."""
-    rot: list[float | None] = [
-        r if p else None for r, p in zip(info[:, 3].tolist(), posed.tolist(), strict=True)
-    ]
-    return info[:, 1].astype(int).tolist(), info[:, 2].tolist(), rot
 
 
 def _packed(targets: list[Target]) -> Packed:
@@ -357,8 +359,7 @@ def solve_batch(
         return _solve_exact(chain, s, exact, given, start, n_workers)
     compiled = _compiled_lm(chain, s, given)
     if compiled is not None:
-        rest = _solve_compiled(chain, s, compiled, given, start, n_workers)
-        return BatchResults.of([first, *rest])
+        return _solve_compiled(chain, s, compiled, given, start, n_workers)
     if n_workers <= 1:
         rest = [
             solve(chain, given.target(i), solver, q0=start, **options)
