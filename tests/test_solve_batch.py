@@ -70,6 +70,18 @@ def test_auto_retries_the_pose_targets_lm_missed_in_the_compiled_loop(g1_arm, wo
         retried += got.details["auto"] == ("lm", "lm") and got.converged
     assert retried == len(missed[:3])
     assert not batch[6].converged  # out of reach
+    # the arrays hold the retried and re-solved rows too
+    np.testing.assert_array_equal(batch.q, [r.q for r in batch])
+    assert (
+        batch.converged.tolist()
+        == [r.converged for r in batch]
+        == [True] * 6 + [False] + [True] * 3
+    )
+    np.testing.assert_array_equal(batch.position_error, [r.position_error for r in batch])
+    np.testing.assert_array_equal(
+        batch.orientation_error[:6], [r.orientation_error for r in batch[:6]]
+    )
+    assert np.isnan(batch.orientation_error[6])
 
 
 @pytest.mark.parametrize("workers", [1, 2])
